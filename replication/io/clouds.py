@@ -1,0 +1,148 @@
+"""Point-cloud files: ``.csv``, ``.txt``, ``.xyz`` (text) and ``.npy`` (numpy).
+
+Text files hold three numeric columns (x, y, z) separated by commas or white space, with an
+optional header line and optional ``#`` comment lines. Every problem is reported as a
+:class:`~replication.errors.CloudFileError` naming the file and, where it applies, the line.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+
+from replication.errors import CloudFileError, InputError
+from replication.io.atomic import atomic_path, atomic_write_text
+from replication.io.vtk import format_number
+from replication.surfaces.cloud import as_cloud
+
+__all__ = ["CLOUD_SUFFIXES", "load_cloud", "save_cloud"]
+
+CLOUD_SUFFIXES: tuple[str, ...] = (".csv", ".txt", ".xyz", ".npy")
+_TEXT_SUFFIXES = (".csv", ".txt", ".xyz")
+
+
+def _is_number(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+def _split(line: str, comma: bool) -> list[str]:
+    return [t.strip() for t in line.split(",")] if comma else line.split()
+
+
+def _diagnose(path: Path, lines: list[tuple[int, str]], comma: bool) -> CloudFileError:
+    """Find the first malformed data line (called only when fast parsing failed)."""
+    for number, line in lines:
+        tokens = _split(line, comma)
+        if len(tokens) != 3:
+            return CloudFileError(
+                f"{path}: line {number} has {len(tokens)} column(s), expected 3 (x, y, z): {line.strip()!r}"
+            )
+        for column, token in enumerate(tokens, start=1):
+            if not _is_number(token):
+                return CloudFileError(f"{path}: line {number}, column {column}: {token!r} is not a number")
+    return CloudFileError(f"{path}: could not parse the file as three numeric columns")
+
+
+def _load_text(path: Path) -> np.ndarray:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise CloudFileError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from exc
+    numbered = [
+        (i, line)
+        for i, line in enumerate(text.splitlines(), start=1)
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
+    if not numbered:
+        raise CloudFileError(f"{path}: the file is empty (no data lines)")
+    first_tokens = _split(numbered[0][1], "," in numbered[0][1])
+    if not all(_is_number(t) for t in first_tokens):
+        numbered = numbered[1:]  # a header line
+        if not numbered:
+            raise CloudFileError(f"{path}: the file has a header but no data lines")
+    comma = "," in numbered[0][1]
+    body = "\n".join(line for _, line in numbered)
+    try:
+        data = np.loadtxt(io.StringIO(body), delimiter="," if comma else None, ndmin=2, dtype=np.float64)
+    except ValueError:
+        raise _diagnose(path, numbered, comma) from None
+    if data.shape[1] != 3:
+        raise _diagnose(path, numbered, comma)
+    bad = np.flatnonzero(~np.isfinite(data).all(axis=1))
+    if bad.size:
+        shown = ", ".join(str(numbered[i][0]) for i in bad[:10]) + (", ..." if bad.size > 10 else "")
+        raise CloudFileError(f"{path}: NaN or infinite coordinates on {bad.size} line(s): {shown}")
+    return data
+
+
+def load_cloud(path: str | os.PathLike[str]) -> np.ndarray:
+    """Read a point cloud from a ``.csv``, ``.txt``, ``.xyz`` or ``.npy`` file.
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    ndarray of float64, shape (n, 3)
+
+    Raises
+    ------
+    CloudFileError
+        Missing, empty or unreadable file; wrong number of columns; non-numeric text;
+        NaN or infinite coordinates (the lines are named).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise CloudFileError(f"point-cloud file not found: {path}")
+    if path.is_dir():
+        raise CloudFileError(f"expected a point-cloud file, got a directory: {path}")
+    suffix = path.suffix.lower()
+    if suffix in _TEXT_SUFFIXES:
+        return _load_text(path)
+    if suffix == ".npy":
+        try:
+            data = np.load(path, allow_pickle=False)
+        except (ValueError, OSError, EOFError) as exc:
+            raise CloudFileError(f"{path}: not a readable .npy array ({exc})") from exc
+        try:
+            return as_cloud(data, name=str(path))
+        except InputError as exc:
+            raise CloudFileError(str(exc)) from exc
+    raise CloudFileError(
+        f"{path}: unsupported point-cloud file type {suffix or '(no suffix)'!r}; "
+        f"use one of {', '.join(CLOUD_SUFFIXES)}"
+    )
+
+
+def save_cloud(points: np.ndarray, path: str | os.PathLike[str]) -> int:
+    """Write a point cloud atomically; the format follows the suffix. Return bytes written.
+
+    ``.csv`` gets a header ``x,y,z`` and comma-separated values, ``.txt``/``.xyz``
+    space-separated values, ``.npy`` a numpy array. Text values use the shortest
+    representation that reads back to the same float64.
+    """
+    cloud = as_cloud(points)
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".npy":
+        with atomic_path(path) as tmp:
+            np.save(tmp, cloud, allow_pickle=False)
+            size = tmp.stat().st_size
+        return size
+    if suffix not in _TEXT_SUFFIXES:
+        raise CloudFileError(
+            f"{path}: unsupported point-cloud file type {suffix or '(no suffix)'!r}; "
+            f"use one of {', '.join(CLOUD_SUFFIXES)}"
+        )
+    sep = "," if suffix == ".csv" else " "
+    header = "x,y,z\n" if suffix == ".csv" else ""
+    rows = (sep.join(format_number(v) for v in row) for row in cloud.tolist())
+    return atomic_write_text(path, header + "\n".join(rows) + "\n")

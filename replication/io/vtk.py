@@ -1,0 +1,171 @@
+"""Triangle-surface files: compact legacy VTK (ASCII) and binary VTK XML (``.vtp``).
+
+The paper's ADT files are VTK (section 5, item 5) and their sizes are compared with NURBS
+files in Table 1, so the legacy writer is deliberately compact: a four-line header, one
+``x y z`` line per vertex with the shortest decimal representation that reads back to the
+same float64 (``3`` rather than ``3.0``), and one ``3 a b c`` line per triangle. Points are
+declared ``double`` so that the round trip through VTK is exact.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Literal, Protocol
+
+import numpy as np
+
+from replication.errors import CloudFileError, InputError, OutputError
+from replication.io.atomic import atomic_path, atomic_write_text
+
+__all__ = [
+    "SURFACE_FORMATS",
+    "TriangleMesh",
+    "format_number",
+    "legacy_vtk_text",
+    "read_surface",
+    "surface_format",
+    "write_surface",
+    "write_vtk",
+    "write_vtp",
+]
+
+SurfaceFormat = Literal["vtk", "vtp"]
+SURFACE_FORMATS: tuple[str, ...] = ("vtk", "vtp")
+
+
+class TriangleMesh(Protocol):
+    """Anything with ``points`` (n, 3) and ``triangles`` (m, 3): a Surface or ClosedSurface."""
+
+    points: np.ndarray
+    triangles: np.ndarray
+
+
+def _strip_zero(text: str) -> str:
+    return text[:-2] if text.endswith(".0") else text
+
+
+def format_number(value: float) -> str:
+    """Shortest text that reads back to the same float64, without a trailing ``.0``."""
+    return _strip_zero(repr(float(value)))
+
+
+def legacy_vtk_text(points: np.ndarray, triangles: np.ndarray, *, title: str = "ADT surface") -> str:
+    """The compact legacy-VTK (version 3.0, ASCII, POLYDATA) text of a triangle mesh."""
+    points = np.asarray(points, dtype=np.float64)
+    triangles = np.asarray(triangles, dtype=np.int64)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise InputError(f"points must have shape (n, 3), got {points.shape}")
+    if triangles.ndim != 2 or triangles.shape[1] != 3:
+        raise InputError(f"triangles must have shape (m, 3), got {triangles.shape}")
+    if "\n" in title or len(title) > 255:
+        raise InputError(f"a VTK title is one line of at most 255 characters, got {title!r}")
+    header = (
+        f"# vtk DataFile Version 3.0\n{title}\nASCII\nDATASET POLYDATA\nPOINTS {points.shape[0]} double\n"
+    )
+    # column-wise formatting: about 3x faster than formatting point by point
+    columns = [[_strip_zero(v) for v in map(repr, points[:, k].tolist())] for k in range(3)]
+    point_lines = "".join(map("{} {} {}\n".format, *columns))
+    polygons = f"POLYGONS {triangles.shape[0]} {4 * triangles.shape[0]}\n"
+    triangle_lines = "".join(map("3 {} {} {}\n".format, *triangles.T.tolist()))
+    return header + point_lines + polygons + triangle_lines
+
+
+def write_vtk(mesh: TriangleMesh, path: str | os.PathLike[str], *, title: str = "ADT surface") -> int:
+    """Write a compact legacy-VTK ASCII file atomically; return its size in bytes."""
+    return atomic_write_text(path, legacy_vtk_text(mesh.points, mesh.triangles, title=title))
+
+
+def write_vtp(
+    mesh: TriangleMesh,
+    path: str | os.PathLike[str],
+    *,
+    compress: bool = False,
+) -> int:
+    """Write a binary VTK XML PolyData (``.vtp``) file atomically; return its size in bytes.
+
+    The data are appended raw (not base64), 64-bit headers; ``compress=True`` adds zlib
+    compression (half the size, about 30x slower). Raw writing of a 1e6-point surface takes
+    about 0.1 s.
+    """
+    from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
+    from vtkmodules.vtkCommonCore import vtkPoints
+    from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
+
+    points = np.ascontiguousarray(mesh.points, dtype=np.float64)
+    triangles = np.asarray(mesh.triangles, dtype=np.int64)
+    vtk_points = vtkPoints()
+    vtk_points.SetData(numpy_to_vtk(points, deep=True))
+    cells = vtkCellArray()
+    offsets = np.arange(0, 3 * triangles.shape[0] + 1, 3, dtype=np.int64)
+    cells.SetData(
+        numpy_to_vtkIdTypeArray(offsets, deep=True),
+        numpy_to_vtkIdTypeArray(np.ascontiguousarray(triangles.ravel()), deep=True),
+    )
+    poly = vtkPolyData()
+    poly.SetPoints(vtk_points)
+    poly.SetPolys(cells)
+    writer = vtkXMLPolyDataWriter()
+    writer.SetInputData(poly)
+    writer.SetDataModeToAppended()
+    writer.EncodeAppendedDataOff()
+    writer.SetHeaderTypeToUInt64()
+    if compress:
+        writer.SetCompressorTypeToZLib()
+    else:
+        writer.SetCompressorTypeToNone()
+    with atomic_path(path) as tmp:
+        writer.SetFileName(str(tmp))
+        if writer.Write() != 1:
+            raise OutputError(f"VTK could not write {path}")
+        size = tmp.stat().st_size
+    return size
+
+
+def surface_format(path: str | os.PathLike[str], fmt: str | None = None) -> SurfaceFormat:
+    """The surface format named by ``fmt`` or, if ``None``, by the suffix of ``path``."""
+    if fmt is None:
+        fmt = Path(path).suffix.lower().lstrip(".")
+        if fmt not in SURFACE_FORMATS:
+            raise InputError(
+                f"cannot tell the surface format from {str(path)!r}: use a .vtk or .vtp suffix "
+                "or name the format"
+            )
+    if fmt not in SURFACE_FORMATS:
+        raise InputError(f"unknown surface format {fmt!r}; choose one of {SURFACE_FORMATS}")
+    return fmt  # type: ignore[return-value]
+
+
+def write_surface(mesh: TriangleMesh, path: str | os.PathLike[str], fmt: str | None = None) -> int:
+    """Write a surface as legacy VTK (``.vtk``) or VTK XML (``.vtp``); return bytes written."""
+    if surface_format(path, fmt) == "vtk":
+        return write_vtk(mesh, path)
+    return write_vtp(mesh, path)
+
+
+def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
+    """Read a triangle surface (``.vtk`` or ``.vtp``) with pyvista; return (points, triangles).
+
+    Raises
+    ------
+    CloudFileError
+        Missing or unreadable file, or a mesh that is not made of triangles only.
+    """
+    import pyvista as pv
+
+    path = Path(path)
+    if not path.is_file():
+        raise CloudFileError(f"surface file not found: {path}")
+    surface_format(path)
+    try:
+        mesh = pv.read(path)
+    except Exception as exc:  # VTK readers raise assorted types
+        raise CloudFileError(f"{path}: not a readable VTK surface ({exc})") from exc
+    if not isinstance(mesh, pv.PolyData) or mesh.n_points == 0:
+        raise CloudFileError(f"{path}: no surface (points and triangles) in the file")
+    if mesh.n_cells == 0 or not mesh.is_all_triangles:
+        raise CloudFileError(f"{path}: the surface must consist of triangles only")
+    points = np.asarray(mesh.points, dtype=np.float64)
+    triangles = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 4)[:, 1:]
+    return points, triangles

@@ -1,0 +1,282 @@
+"""Adapted Delaunay triangulation (ADT), paper section 3.2 steps 4-10.
+
+Steps: (4) standard deviation of each coordinate; (5) the depth axis is the axis of minimum
+spread (or of maximum spread on request, eq. 7); (6) ties are broken Z first, then Y (eq. 8);
+(7) project onto the two remaining axes; (8-9) 2-D Delaunay triangulation; (10) the same
+triangles, lifted back to the 3-D points, form the surface.
+
+Choices where the paper is silent, documented here and tested:
+
+* **Spread** is the population standard deviation (``ddof=0``); the choice does not affect
+  which axis is chosen.
+* **Tie**: two spreads tie when they differ by at most ``tie_rtol`` times the largest
+  spread (default 1e-9). Among the axes that tie with the minimum (or maximum), the depth
+  axis is z if z is among them, else y, else x (eq. 8 generalised to every tie pattern).
+* **Projection axes** follow the cyclic order, (y, z) for depth x, (z, x) for depth y and
+  (x, y) for depth z, so that (u, v, depth) is right-handed; triangles are counter-clockwise
+  in (u, v), and their normals point towards +depth.
+* **Duplicates**: points with the same projected position become one vertex by the
+  duplicate policy (:mod:`.duplicates`), never silently.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from replication.errors import DegenerateInputError, InputError
+from replication.surfaces.cloud import as_cloud
+from replication.surfaces.delaunay import Backend, delaunay_2d
+from replication.surfaces.duplicates import DuplicatePolicy, merge_duplicates
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pyvista
+
+__all__ = [
+    "AXES",
+    "DEPTH_RULES",
+    "DEFAULT_TIE_RTOL",
+    "Surface",
+    "adt",
+    "parse_axis",
+    "projection_axes",
+    "select_depth_axis",
+    "triangle_polydata",
+]
+
+AXES: tuple[str, str, str] = ("x", "y", "z")
+DEPTH_RULES: tuple[str, ...] = ("min", "max", "x", "y", "z")
+DEFAULT_TIE_RTOL = 1e-9
+DepthRule = Literal["min", "max", "x", "y", "z"]
+
+
+def parse_axis(axis: int | str) -> int:
+    """Return the axis index 0, 1, 2 of ``axis`` given as an index or as ``"x"/"y"/"z"``."""
+    if isinstance(axis, str) and axis.lower() in AXES:
+        return AXES.index(axis.lower())
+    if isinstance(axis, (int, np.integer)) and not isinstance(axis, bool) and 0 <= axis <= 2:
+        return int(axis)
+    raise InputError(f"axis must be 0, 1, 2 or 'x', 'y', 'z', got {axis!r}")
+
+
+def projection_axes(depth_axis: int) -> tuple[int, int]:
+    """The (u, v) axes for a depth axis, in cyclic (right-handed) order."""
+    return ((depth_axis + 1) % 3, (depth_axis + 2) % 3)
+
+
+def select_depth_axis(
+    spreads: ArrayLike, rule: Literal["min", "max"] = "min", *, tie_rtol: float = DEFAULT_TIE_RTOL
+) -> int:
+    """Choose the depth axis from the spreads of the coordinates.
+
+    Parameters
+    ----------
+    spreads : array_like, shape (3,)
+        Standard deviation of x, y and z.
+    rule : {"min", "max"}
+        Axis of minimum spread (narrow surface) or of maximum spread (widely spread surface).
+    tie_rtol : float
+        Spreads within ``tie_rtol * max(spreads)`` of the extreme value tie.
+
+    Returns
+    -------
+    int
+        0, 1 or 2 for x, y or z.
+
+    Notes
+    -----
+    Paper eq. 7 (min or max) and eq. 8 (ties: Z first, then Y).
+    """
+    v = np.asarray(spreads, dtype=np.float64)
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.any(v < 0):
+        raise InputError(f"spreads must be 3 finite non-negative numbers, got {spreads!r}")
+    if rule not in ("min", "max"):
+        raise InputError(f"depth rule must be 'min' or 'max', got {rule!r}")
+    if not tie_rtol >= 0:
+        raise InputError(f"tie tolerance must be non-negative, got {tie_rtol=}")
+    extreme = v.min() if rule == "min" else v.max()
+    tied = np.abs(v - extreme) <= tie_rtol * v.max()
+    return next(axis for axis in (2, 1, 0) if tied[axis])
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a = np.ascontiguousarray(a)
+    a.flags.writeable = False
+    return a
+
+
+def triangle_polydata(points: np.ndarray, triangles: np.ndarray) -> pyvista.PolyData:
+    """A :class:`pyvista.PolyData` of triangles (pyvista is imported on first use)."""
+    import pyvista as pv
+
+    return pv.PolyData.from_regular_faces(np.array(points, dtype=np.float64), np.asarray(triangles))
+
+
+@dataclass(frozen=True, eq=False)
+class Surface:
+    """An ADT surface: vertices, triangles and how they were obtained.
+
+    Attributes
+    ----------
+    points : ndarray of float64, shape (n_vertices, 3)
+        Vertices. Without duplicates they are the input points in input order; otherwise one
+        vertex per distinct projected position, in order of first occurrence.
+    triangles : ndarray of int64, shape (n_triangles, 3)
+        Vertex indices, counter-clockwise in the (u, v) projection plane.
+    depth_axis : int
+        Axis perpendicular to the surface (0, 1, 2 for x, y, z).
+    projection_axes : tuple of int
+        The (u, v) axes triangulated in 2-D.
+    spreads : tuple of float
+        Standard deviation of x, y and z of the input cloud.
+    depth_rule : str
+        ``"min"``, ``"max"``, or the axis name when the depth axis was imposed.
+    duplicate_policy : str
+        Policy applied to points sharing a projected position.
+    vertex_of_input : ndarray of int64, shape (n_input,)
+        The vertex each input point became (the merge record).
+    backend : str
+        Triangulation backend that produced the triangles.
+    """
+
+    points: np.ndarray
+    triangles: np.ndarray
+    depth_axis: int
+    projection_axes: tuple[int, int]
+    spreads: tuple[float, float, float]
+    depth_rule: str
+    duplicate_policy: str
+    vertex_of_input: np.ndarray
+    backend: str
+    _input_size: int = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "points", _readonly(self.points))
+        object.__setattr__(self, "triangles", _readonly(self.triangles))
+        object.__setattr__(self, "vertex_of_input", _readonly(self.vertex_of_input))
+        object.__setattr__(self, "_input_size", int(self.vertex_of_input.shape[0]))
+
+    @property
+    def n_input(self) -> int:
+        """Number of points in the input cloud."""
+        return self._input_size
+
+    @property
+    def n_vertices(self) -> int:
+        return int(self.points.shape[0])
+
+    @property
+    def n_triangles(self) -> int:
+        return int(self.triangles.shape[0])
+
+    @property
+    def n_merged(self) -> int:
+        """Input points merged into another point's vertex (0 when all positions differ)."""
+        return self.n_input - self.n_vertices
+
+    @property
+    def merged_inputs(self) -> np.ndarray:
+        """Indices of input points whose vertex stands for more than one input point."""
+        counts = np.bincount(self.vertex_of_input, minlength=self.n_vertices)
+        return np.flatnonzero(counts[self.vertex_of_input] > 1)
+
+    @property
+    def depth_axis_name(self) -> str:
+        return AXES[self.depth_axis]
+
+    @property
+    def projection_axes_names(self) -> tuple[str, str]:
+        return (AXES[self.projection_axes[0]], AXES[self.projection_axes[1]])
+
+    def projected(self) -> np.ndarray:
+        """Vertices in the (u, v) projection plane, shape (n_vertices, 2)."""
+        return self.points[:, list(self.projection_axes)]
+
+    def to_polydata(self) -> pyvista.PolyData:
+        """The surface as a :class:`pyvista.PolyData` of triangles."""
+        return triangle_polydata(self.points, self.triangles)
+
+
+def adt(
+    points: ArrayLike,
+    *,
+    depth: DepthRule = "min",
+    duplicates: DuplicatePolicy = "mean",
+    backend: Backend = "auto",
+    tie_rtol: float = DEFAULT_TIE_RTOL,
+) -> Surface:
+    """Build the ADT surface of a point cloud.
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 3)
+        The cloud; finite coordinates.
+    depth : {"min", "max", "x", "y", "z"}
+        Depth axis rule: the axis of minimum spread (default, a "narrow" surface), of
+        maximum spread, or an imposed axis.
+    duplicates : {"mean", "min", "max", "first", "raise"}
+        Policy for points sharing a projected position (see :func:`.merge_duplicates`).
+    backend : {"auto", "sweephull", "scipy"}
+        2-D Delaunay backend (see :func:`.delaunay_2d`).
+    tie_rtol : float
+        Relative tolerance under which two spreads tie (see :func:`select_depth_axis`).
+
+    Returns
+    -------
+    Surface
+
+    Raises
+    ------
+    InputError
+        Bad shape, non-finite coordinates, unknown options, duplicates under ``"raise"``.
+    DegenerateInputError
+        Fewer than three distinct projected points, or all of them collinear.
+
+    Warns
+    -----
+    DuplicatePointsWarning
+        When points sharing a projected position were merged.
+
+    Notes
+    -----
+    Paper section 3.2, steps 4-10, eq. 5-9.
+    """
+    cloud = as_cloud(points)
+    spreads = tuple(float(s) for s in np.std(cloud, axis=0))
+    if depth in ("min", "max"):
+        axis = select_depth_axis(spreads, depth, tie_rtol=tie_rtol)
+    elif isinstance(depth, str) and depth in AXES:
+        axis = AXES.index(depth)
+    else:
+        raise InputError(f"depth rule must be one of {DEPTH_RULES}, got {depth!r}")
+    u_axis, v_axis = projection_axes(axis)
+    merge = merge_duplicates(
+        cloud[:, u_axis],
+        cloud[:, v_axis],
+        cloud[:, axis],
+        duplicates,
+        axis_names=(AXES[u_axis], AXES[v_axis], AXES[axis]),
+    )
+    vertices = cloud[merge.first]  # fancy indexing copies
+    vertices[:, axis] = merge.depth
+    try:
+        triangles, used = delaunay_2d(vertices[:, [u_axis, v_axis]], backend=backend)
+    except DegenerateInputError as exc:
+        raise DegenerateInputError(
+            f"{exc} (projection plane ({AXES[u_axis]}, {AXES[v_axis]}), depth axis "
+            f"{AXES[axis]}, rule {depth!r}; another --depth rule may help)"
+        ) from exc
+    return Surface(
+        points=vertices,
+        triangles=triangles,
+        depth_axis=axis,
+        projection_axes=(u_axis, v_axis),
+        spreads=spreads,  # type: ignore[arg-type]
+        depth_rule=depth,
+        duplicate_policy=duplicates,
+        vertex_of_input=merge.vertex_of_input,
+        backend=used,
+    )

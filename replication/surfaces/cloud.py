@@ -1,0 +1,134 @@
+"""Point clouds: random clouds in a box (paper eq. 1-4) and validation of user clouds."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import astuple, dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from replication.errors import InputError
+
+__all__ = ["Box", "CASE_STUDY_BOX", "as_cloud", "lattice_values", "random_cloud", "RNGLike"]
+
+RNGLike = int | np.random.Generator | None
+
+
+@dataclass(frozen=True)
+class Box:
+    """Axis-aligned domain ``[xmin, xmax] x [ymin, ymax] x [zmin, zmax]`` (paper eq. 1).
+
+    A zero-width side (``min == max``) is allowed: every point then has that coordinate.
+    """
+
+    xmin: float
+    xmax: float
+    ymin: float
+    ymax: float
+    zmin: float
+    zmax: float
+
+    def __post_init__(self) -> None:
+        values = astuple(self)
+        if not all(np.isfinite(values)):
+            raise InputError(f"box bounds must be finite, got {values}")
+        for name, lo, hi in zip("xyz", values[0::2], values[1::2]):
+            if lo > hi:
+                raise InputError(f"box has {name}min > {name}max: {lo} > {hi}")
+
+    @classmethod
+    def from_bounds(cls, bounds: Sequence[float]) -> Box:
+        """Build from ``(xmin, xmax, ymin, ymax, zmin, zmax)``."""
+        values = tuple(float(b) for b in bounds)
+        if len(values) != 6:
+            raise InputError(f"a box needs 6 bounds (xmin xmax ymin ymax zmin zmax), got {len(values)}")
+        return cls(*values)
+
+    @property
+    def lower(self) -> np.ndarray:
+        return np.array([self.xmin, self.ymin, self.zmin])
+
+    @property
+    def upper(self) -> np.ndarray:
+        return np.array([self.xmax, self.ymax, self.zmax])
+
+
+#: The case study's domain in millimetres (paper section 6): 36 x 30 x 13 mm.
+CASE_STUDY_BOX = Box(0.0, 36.0, 0.0, 30.0, 0.0, 13.0)
+
+
+def lattice_values(lo: float, hi: float, step: float) -> np.ndarray:
+    """Lattice coordinates ``lo + k * step`` inside ``[lo, hi]`` (k = 0, 1, ...)."""
+    if not (np.isfinite(step) and step > 0):
+        raise InputError(f"discretisation step must be positive and finite, got {step=}")
+    count = int(np.floor((hi - lo) / step * (1 + 1e-12) + 1e-9)) + 1
+    return lo + step * np.arange(count)
+
+
+def random_cloud(
+    n: int,
+    box: Box = CASE_STUDY_BOX,
+    *,
+    step: float | None = None,
+    rng: RNGLike = None,
+) -> np.ndarray:
+    """Draw ``n`` random points in ``box``, continuous or on a lattice.
+
+    Parameters
+    ----------
+    n : int
+        Number of points (paper eq. 2), at least 1.
+    box : Box
+        The domain (paper eq. 1); default the case study's 36 x 30 x 13 mm.
+    step : float, optional
+        Discretisation step: coordinates are drawn uniformly from the lattice
+        ``min + k * step`` inside the box (the case study uses 1 mm). ``None`` draws
+        continuous uniform coordinates.
+    rng : int, numpy.random.Generator or None
+        Seed or generator; ``np.random.default_rng(rng)`` is called once.
+
+    Returns
+    -------
+    ndarray of float64, shape (n, 3)
+
+    Notes
+    -----
+    Paper section 3.2, steps 1-3, eq. 1-4: each coordinate is drawn independently and
+    uniformly; repeated draws of the same lattice node are possible (they are merged by ADT
+    according to its duplicate policy).
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise InputError(f"number of points must be a positive integer, got {n=!r}")
+    gen = np.random.default_rng(rng)
+    lo, hi = box.lower, box.upper
+    if step is None:
+        return lo + (hi - lo) * gen.random((int(n), 3))
+    columns = []
+    for axis in range(3):
+        values = lattice_values(lo[axis], hi[axis], step)
+        columns.append(values[gen.integers(0, values.size, size=int(n))])
+    return np.column_stack(columns)
+
+
+def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
+    """Validate a point cloud and return it as a float64 array of shape (n, 3).
+
+    Raises
+    ------
+    InputError
+        Wrong shape, non-numeric values, or NaN/infinite coordinates (the rows are named).
+    """
+    try:
+        arr = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name} must be numeric, got {type(points).__name__}: {exc}") from exc
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise InputError(f"{name} must have shape (n, 3), got shape {arr.shape}")
+    if arr.shape[0] == 0:
+        raise InputError(f"{name} is empty: need at least 3 points")
+    bad = np.flatnonzero(~np.isfinite(arr).all(axis=1))
+    if bad.size:
+        shown = ", ".join(str(i) for i in bad[:10]) + (", ..." if bad.size > 10 else "")
+        raise InputError(f"{name} has NaN or infinite coordinates in {bad.size} row(s): {shown}")
+    return arr

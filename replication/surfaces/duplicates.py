@@ -1,0 +1,178 @@
+"""Points that share a projected position: grouping and the merge policies.
+
+A 2-D Delaunay triangulation has one vertex per distinct position, so points of the cloud
+that project onto the same (u, v) position cannot all lie on the ADT surface. scipy's Qhull
+drops such points without a word; this module makes the choice explicit (paper section 3.2,
+step 7, promises that every point lies on the surface, which is only possible after merging).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numba import njit
+
+from replication.errors import DuplicatePointsWarning, InputError
+
+__all__ = ["DUPLICATE_POLICIES", "DuplicatePolicy", "Merge", "group_positions", "merge_duplicates"]
+
+DuplicatePolicy = Literal["mean", "min", "max", "first", "raise"]
+DUPLICATE_POLICIES: tuple[str, ...] = ("mean", "min", "max", "first", "raise")
+
+_M1 = np.uint64(0x9E3779B97F4A7C15)
+_M2 = np.uint64(0xC2B2AE3D27D4EB4F)
+_SHIFT = np.uint64(31)
+
+
+@njit(cache=True)
+def _group_bits(ubits, vbits):
+    n = ubits.shape[0]
+    size = 1
+    while size < 2 * n:
+        size *= 2
+    mask = np.uint64(size - 1)
+    table = np.full(size, -1, dtype=np.int64)  # slot -> group id
+    group = np.empty(n, dtype=np.int64)
+    first = np.empty(n, dtype=np.int64)
+    n_groups = 0
+    for i in range(n):
+        h = ubits[i] * _M1 ^ vbits[i] * _M2
+        h ^= h >> _SHIFT
+        slot = h & mask
+        while True:
+            g = table[slot]
+            if g == -1:
+                table[slot] = n_groups
+                group[i] = n_groups
+                first[n_groups] = i
+                n_groups += 1
+                break
+            j = first[g]
+            if ubits[j] == ubits[i] and vbits[j] == vbits[i]:
+                group[i] = g
+                break
+            slot = (slot + np.uint64(1)) & mask
+    return group, first[:n_groups].copy()
+
+
+def group_positions(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Group points by exactly equal (u, v) position.
+
+    Parameters
+    ----------
+    u, v : ndarray of float64, shape (n,)
+        Finite projected coordinates.
+
+    Returns
+    -------
+    group : ndarray of int64, shape (n,)
+        Group of each point, numbered in order of first occurrence.
+    first : ndarray of int64, shape (n_groups,)
+        Index of the first point of each group.
+
+    Notes
+    -----
+    Equality is exact (``-0.0`` equals ``0.0``); a hash table makes this O(n).
+    """
+    # adding 0.0 turns -0.0 into +0.0 so that equal values have equal bits
+    ubits = np.ascontiguousarray(np.asarray(u, dtype=np.float64) + 0.0).view(np.uint64)
+    vbits = np.ascontiguousarray(np.asarray(v, dtype=np.float64) + 0.0).view(np.uint64)
+    return _group_bits(ubits, vbits)
+
+
+@dataclass(frozen=True, eq=False)
+class Merge:
+    """Outcome of merging points that share a projected position.
+
+    Attributes
+    ----------
+    vertex_of_input : ndarray of int64, shape (n,)
+        The vertex that each input point became.
+    first : ndarray of int64, shape (n_vertices,)
+        The input point whose projected position each vertex has (its first occurrence).
+    depth : ndarray of float64, shape (n_vertices,)
+        The depth coordinate of each vertex after the policy was applied.
+    """
+
+    vertex_of_input: np.ndarray
+    first: np.ndarray
+    depth: np.ndarray
+
+    @property
+    def n_merged(self) -> int:
+        """Number of input points that did not become a vertex of their own."""
+        return int(self.vertex_of_input.shape[0] - self.first.shape[0])
+
+
+def merge_duplicates(
+    u: np.ndarray,
+    v: np.ndarray,
+    depth: np.ndarray,
+    policy: DuplicatePolicy = "mean",
+    *,
+    axis_names: tuple[str, str, str] = ("u", "v", "depth"),
+) -> Merge:
+    """Merge points with equal projected position according to ``policy``.
+
+    Parameters
+    ----------
+    u, v, depth : ndarray of float64, shape (n,)
+        Projected coordinates and depth coordinate of each point.
+    policy : {"mean", "min", "max", "first", "raise"}
+        How a group of points sharing (u, v) becomes one vertex: its depth is the mean,
+        minimum or maximum of the group's depths, or that of the first point of the group;
+        ``"raise"`` refuses such clouds with an :class:`~replication.errors.InputError`.
+    axis_names : tuple of str
+        Names of (u, v, depth) for messages, e.g. ``("x", "y", "z")``.
+
+    Returns
+    -------
+    Merge
+
+    Warns
+    -----
+    DuplicatePointsWarning
+        When points were merged, with their number.
+
+    Notes
+    -----
+    Implements the project's duplicate policy for ADT (paper section 3.2, steps 7-10).
+    """
+    if policy not in DUPLICATE_POLICIES:
+        raise InputError(f"unknown duplicate policy {policy!r}; choose one of {DUPLICATE_POLICIES}")
+    group, first = group_positions(u, v)
+    n, n_groups = group.shape[0], first.shape[0]
+    if n_groups == n:
+        return Merge(vertex_of_input=group, first=first, depth=np.asarray(depth, float)[first])
+    counts = np.bincount(group, minlength=n_groups)
+    un, vn, dn = axis_names
+    if policy == "raise":
+        shared = np.flatnonzero(counts[group] > 1)
+        shown = ", ".join(str(i) for i in shared[:10]) + (", ..." if shared.size > 10 else "")
+        raise InputError(
+            f"{shared.size} points share a projected ({un}, {vn}) position with another point "
+            f"(rows {shown}); choose a duplicate policy other than 'raise' to merge them"
+        )
+    depth = np.asarray(depth, dtype=np.float64)
+    if policy == "mean":
+        merged = np.bincount(group, weights=depth, minlength=n_groups) / counts
+    elif policy == "min":
+        merged = np.full(n_groups, np.inf)
+        np.minimum.at(merged, group, depth)
+    elif policy == "max":
+        merged = np.full(n_groups, -np.inf)
+        np.maximum.at(merged, group, depth)
+    else:  # "first"
+        merged = depth[first]
+    n_merged = n - n_groups
+    warnings.warn(
+        f"merged {n_merged} point(s) that share a projected ({un}, {vn}) position with another "
+        f"point; {int(np.count_nonzero(counts > 1))} vertex/vertices took the {policy} "
+        f"{dn} of their group (duplicate policy {policy!r})",
+        DuplicatePointsWarning,
+        stacklevel=3,
+    )
+    return Merge(vertex_of_input=group, first=first, depth=merged)
