@@ -200,7 +200,7 @@ def _legalize(start, x, y, tri, halfedges, hull_tri, stack):
     return stack
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _seed(x, y):
     """Return an empty-circle seed triangle (i0, i1, i2), counter-clockwise, or -1s if collinear."""
     n = x.shape[0]
@@ -239,7 +239,10 @@ def _seed(x, y):
                 continue
             qx = x[i] - mx
             qy = y[i] - my
-            k = (qx * qx + qy * qy - half2) / (2.0 * (qx * nx + qy * ny))
+            denominator = 2.0 * (qx * nx + qy * ny)
+            if not denominator > 0.0:  # underflow: the point is numerically on the line
+                continue
+            k = (qx * qx + qy * qy - half2) / denominator
             if k < best:
                 best = k
                 i2 = i
@@ -249,7 +252,7 @@ def _seed(x, y):
     return -1, -1, -1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def sweep_centre(x, y):
     """Return the seed triangle ``(i0, i1, i2)`` and its circumcentre (the sweep centre).
 
@@ -285,6 +288,8 @@ def sweep_hull(x, y):
     i0, i1, i2, ccx, ccy = sweep_centre(x, y)
     if i0 < 0:
         return np.empty((0, 3), dtype=np.int64), STATUS_COLLINEAR, 0
+    if not (np.isfinite(ccx) and np.isfinite(ccy)):  # coordinates beyond float64's range
+        return np.empty((0, 3), dtype=np.int64), STATUS_SKIPPED, x.shape[0]
     # Renumber the points in sweep order: the hull and the triangles being flipped are then
     # always recent, so the working set stays in cache (about 3x faster at 1e6 points).
     order = np.argsort((x - ccx) ** 2 + (y - ccy) ** 2)
@@ -294,7 +299,7 @@ def sweep_hull(x, y):
     return order[tri], status, skipped
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _sweep(x, y, i0, i1, i2, ccx, ccy):
     """Main sweep over points already sorted by distance from the centre (ccx, ccy)."""
     n = x.shape[0]
