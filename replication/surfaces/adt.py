@@ -245,7 +245,12 @@ def adt(
     Paper section 3.2, steps 4-10, eq. 5-9.
     """
     cloud = as_cloud(points)
-    spreads = tuple(float(s) for s in np.std(cloud, axis=0))
+    with np.errstate(over="ignore", invalid="ignore"):
+        spreads = tuple(float(s) for s in np.std(cloud, axis=0))
+    if not all(np.isfinite(spreads)):
+        raise InputError(
+            f"coordinates too large: their standard deviations {spreads} overflow float64; rescale the cloud"
+        )
     if depth in ("min", "max"):
         axis = select_depth_axis(spreads, depth, tie_rtol=tie_rtol)
     elif isinstance(depth, str) and depth in AXES:

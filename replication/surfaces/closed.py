@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from replication.errors import InputError
+from replication.errors import DegenerateInputError, InputError
 from replication.surfaces.adt import AXES, Surface, adt, parse_axis, triangle_polydata
 from replication.surfaces.cloud import as_cloud
 from replication.surfaces.delaunay import Backend
@@ -66,7 +66,10 @@ def parse_split(text: str) -> SplitPlane:
                 offset = float(value)
             except ValueError:
                 break
-            return SplitPlane(name.strip().lower(), offset)  # type: ignore[arg-type]
+            try:
+                return SplitPlane(name.strip().lower(), offset)  # type: ignore[arg-type]
+            except InputError as exc:
+                raise InputError(f"split plane {text!r}: {exc}") from exc
     raise InputError(f"split plane must look like 'z=0.5' (axis=offset), got {text!r}")
 
 
@@ -171,6 +174,11 @@ def closed_adt(
         ("upper", (coord >= plane.offset) | on_plane),
         ("lower", (coord <= plane.offset) | on_plane),
     ):
+        if mask.sum() < 3:
+            raise DegenerateInputError(
+                f"{name} half of split {plane} has {int(mask.sum())} point(s); need at least 3 "
+                "(is the plane inside the cloud?)"
+            )
         try:
             halves[name] = adt(cloud[mask], depth=AXES[plane.axis], duplicates=duplicates, backend=backend)
         except InputError as exc:

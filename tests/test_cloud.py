@@ -1,0 +1,68 @@
+"""Random point clouds in a box (paper eq. 1-4)."""
+
+import numpy as np
+import pytest
+
+from replication.errors import InputError
+from replication.surfaces import CASE_STUDY_BOX, Box, random_cloud
+from replication.surfaces.cloud import lattice_values
+
+
+def test_continuous_cloud_in_box():
+    box = Box(-1, 2, 10, 11, 0, 0.5)
+    c = random_cloud(1000, box, rng=0)
+    assert c.shape == (1000, 3)
+    assert np.all(c >= box.lower) and np.all(c <= box.upper)
+    # uniform: each coordinate's mean near the box centre
+    np.testing.assert_allclose(c.mean(axis=0), (box.lower + box.upper) / 2, atol=0.05 * 3)
+
+
+def test_lattice_cloud_uses_every_node_uniformly():
+    c = random_cloud(37000, CASE_STUDY_BOX, step=1.0, rng=1)
+    assert np.all(c == np.round(c))
+    xs, counts = np.unique(c[:, 0], return_counts=True)
+    np.testing.assert_array_equal(xs, np.arange(37.0))  # 0..36 inclusive
+    assert counts.min() > 800 and counts.max() < 1200  # ~1000 each
+    assert set(np.unique(c[:, 2])) == set(np.arange(14.0))
+
+
+def test_lattice_values_include_the_upper_bound():
+    np.testing.assert_allclose(lattice_values(0.0, 1.0, 0.1), np.arange(11) / 10)
+    np.testing.assert_array_equal(lattice_values(0.0, 1.0, 0.3), [0, 0.3, 0.6, 0.8999999999999999])
+    np.testing.assert_array_equal(lattice_values(2.0, 2.0, 1.0), [2.0])
+
+
+def test_seeded_clouds_are_reproducible_and_ignore_global_state():
+    np.random.seed(0)
+    a = random_cloud(50, rng=42)
+    np.random.seed(1)
+    b = random_cloud(50, rng=42)
+    np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(a, random_cloud(50, rng=np.random.default_rng(42)))
+    assert not np.array_equal(a, random_cloud(50, rng=43))
+
+
+def test_flat_box_side():
+    c = random_cloud(20, Box(0, 1, 0, 1, 3, 3), rng=0)
+    assert np.all(c[:, 2] == 3)
+
+
+@pytest.mark.parametrize("n", [0, -3, 2.5, True, "10"])
+def test_bad_point_count(n):
+    with pytest.raises(InputError, match="positive integer"):
+        random_cloud(n)
+
+
+@pytest.mark.parametrize("step", [0.0, -1.0, np.inf, np.nan])
+def test_bad_step(step):
+    with pytest.raises(InputError, match="step"):
+        random_cloud(5, step=step)
+
+
+def test_bad_boxes():
+    with pytest.raises(InputError, match="xmin > xmax"):
+        Box(1, 0, 0, 1, 0, 1)
+    with pytest.raises(InputError, match="finite"):
+        Box(0, np.inf, 0, 1, 0, 1)
+    with pytest.raises(InputError, match="6 bounds"):
+        Box.from_bounds([0, 1, 0, 1])
