@@ -1,0 +1,167 @@
+"""The ``replication`` command line: contract, errors, JSON, determinism."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from replication.cli import main
+from replication.io import load_cloud, read_surface, save_cloud
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def cloud_file(tmp_path):
+    path = tmp_path / "cloud.csv"
+    save_cloud(np.random.default_rng(0).random((40, 3)) * [30, 20, 5], path)
+    return path
+
+
+def test_adt_from_file_human_output(capsys, cloud_file, tmp_path):
+    out_path = tmp_path / "s.vtk"
+    code, out, err = run(capsys, "adt", str(cloud_file), "-o", str(out_path))
+    assert code == 0, err
+    assert "40 points -> 40 vertices" in out and "depth axis z" in out
+    assert f"wrote {out_path}" in out and f"{out_path.stat().st_size:,} bytes" in out
+    points, _ = read_surface(out_path)
+    np.testing.assert_array_equal(points, load_cloud(cloud_file))
+
+
+def test_adt_json_is_one_object(capsys, cloud_file, tmp_path):
+    out_path = tmp_path / "s.vtp"
+    code, out, _ = run(capsys, "adt", str(cloud_file), "-o", str(out_path), "--json", "--depth", "max")
+    assert code == 0
+    report = json.loads(out)
+    assert report["depth_axis"] == "x" and report["depth_rule"] == "max"
+    assert report["projection_axes"] == ["y", "z"]
+    assert report["format"] == "vtp" and report["bytes"] == out_path.stat().st_size
+    assert report["points"] == report["vertices"] == 40 and report["points_merged"] == 0
+    assert report["triangles"] > 0 and report["backend"] == ["sweephull"]
+
+
+def test_adt_random_is_reproducible(capsys, tmp_path):
+    args = ["adt", "--random", "101", "--seed", "7", "--step", "1", "--json"]
+    code1, out1, _ = run(
+        capsys, *args, "-o", str(tmp_path / "a.vtk"), "--save-cloud", str(tmp_path / "a.npy")
+    )
+    code2, out2, _ = run(capsys, *args, "-o", str(tmp_path / "b.vtk"))
+    assert code1 == code2 == 0
+    assert (tmp_path / "a.vtk").read_bytes() == (tmp_path / "b.vtk").read_bytes()
+    r1 = json.loads(out1)
+    assert r1["seed"] == 7 and r1["box"] == [0, 36, 0, 30, 0, 13] and r1["step"] == 1
+    assert r1["points"] == 101 and r1["points_merged"] == 101 - r1["vertices"]
+    cloud = load_cloud(tmp_path / "a.npy")
+    assert cloud.shape == (101, 3) and np.all(cloud == np.round(cloud))
+
+
+def test_adt_random_box_and_no_output(capsys):
+    code, out, _ = run(capsys, "adt", "--random", "30", "--seed", "1", "--box", "0", "1", "0", "1", "0", "9")
+    assert code == 0 and "no output file written" in out
+    assert "depth axis" in out
+
+
+def test_adt_closed_surface(capsys, tmp_path):
+    t = 2 * np.pi * np.arange(16) / 16
+    ring = np.column_stack([np.cos(t), np.sin(t), np.zeros(16)])
+    caps = np.array([[0.1, 0.2, 0.5], [-0.3, 0.1, 0.4], [0.0, -0.2, -0.5], [0.2, 0.3, -0.3]])
+    save_cloud(np.vstack([ring, caps]), tmp_path / "closed.xyz")
+    code, out, _ = run(
+        capsys, "adt", str(tmp_path / "closed.xyz"), "--split", "z=0", "-o", str(tmp_path / "c.vtk")
+    )
+    assert code == 0 and "closed (watertight)" in out
+    code, out, _ = run(capsys, "adt", str(tmp_path / "closed.xyz"), "--split", "z=0", "--json")
+    report = json.loads(out)
+    assert report["closed"] is True and report["points_on_plane"] == 16 and report["vertices"] == 20
+
+
+def test_duplicates_reported_not_warned_twice(capsys, tmp_path):
+    save_cloud(np.array([[0, 0, 1.0], [0, 0, 3.0], [1, 0, 0], [0, 1, 0]]), tmp_path / "d.csv")
+    code, out, err = run(capsys, "adt", str(tmp_path / "d.csv"), "--depth", "z")
+    assert code == 0 and "merged 1 point(s)" in out and err == ""
+    code, out, err = run(capsys, "adt", str(tmp_path / "d.csv"), "--depth", "z", "--duplicates", "raise")
+    assert code == 1 and "rows 0, 1" in err
+
+
+@pytest.mark.parametrize(
+    ("content", "match"),
+    [
+        ("1,2,3\n4,5\n", "line 2 has 2 column(s)"),
+        ("1,2,3\n4,x,6\n", "'x' is not a number"),
+        ("", "empty"),
+        ("1,2,3\nnan,1,1\n", "NaN or infinite coordinates on 1 line(s): 2"),
+        ("0,0,0\n1,1,0\n2,2,1\n", "collinear"),
+        ("0,0,0\n0,0,1\n1,1,0\n", "at least 3 distinct"),
+    ],
+)
+def test_bad_input_one_line_error_and_no_output(capsys, tmp_path, content, match):
+    (tmp_path / "bad.csv").write_text(content)
+    out_path = tmp_path / "out.vtk"
+    code, out, err = run(capsys, "adt", str(tmp_path / "bad.csv"), "-o", str(out_path), "--depth", "z")
+    assert code == 1
+    assert match in err and err.startswith("replication adt: error: ") and err.count("\n") == 1
+    assert not out_path.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.csv"]
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["adt", "missing.csv"], "not found"),
+        (["adt"], "give a point-cloud file INPUT"),
+        (
+            ["adt", "--random", "5", "--seed", "1", "-o", "/no/such/dir/s.vtk"],
+            "output directory does not exist",
+        ),
+        (["adt", "--seed", "1", "x.csv"], "--seed applies only with --random"),
+        (["adt", "x.csv", "--random", "4"], "not both"),
+        (["adt", "--random", "5", "-o", "s.stl"], "suffix"),
+        (["adt", "--random", "5", "--step", "0"], "step"),
+        (["adt", "--random", "5", "--box", "1", "0", "0", "1", "0", "1"], "xmin > xmax"),
+        (["adt", "--random", "50", "--split", "q=1"], "split"),
+    ],
+)
+def test_usage_problems_exit_1(capsys, tmp_path, monkeypatch, argv, match):
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run(capsys, *argv)
+    assert code == 1 and match in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_argparse_errors_exit_2(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["adt", "--random", "-3"])
+    assert exc.value.code == 2
+    with pytest.raises(SystemExit) as exc:
+        main(["adt", "--depth", "middle", "x.csv"])
+    assert exc.value.code == 2
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["adt", "--help"], ["reproduce", "--help"]])
+def test_help(capsys, argv):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert "usage: replication" in out
+
+
+def test_adt_help_explains_for_newcomers(capsys):
+    with pytest.raises(SystemExit):
+        main(["adt", "--help"])
+    out = capsys.readouterr().out
+    for phrase in ("examples:", "--random", "--split", "--duplicates", "depth axis", "eq. 7"):
+        assert phrase in out
+
+
+def test_python_dash_m_entry_point():
+    result = subprocess.run(
+        [sys.executable, "-m", "replication", "--version"], capture_output=True, text=True, check=True
+    )
+    assert result.stdout.startswith("replication ")
