@@ -1,0 +1,212 @@
+"""The NURBS baseline (section 3.1) and the fast evaluator."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from replication.errors import DegenerateInputError, DuplicatePointsWarning, InputError
+from replication.surfaces import random_cloud
+from replication.surfaces.bspline import evaluate, evaluate_grid, invert, parameter_grid
+from replication.surfaces.nurbs import (
+    NurbsPatch,
+    clamped_uniform_knots,
+    control_net_shape,
+    fit_nurbs,
+    grid_depths,
+)
+
+PAPER_ASPECT = 36 / 30  # the case-study box, wider along x
+
+
+@pytest.mark.parametrize(
+    ("n", "expected"),
+    [(9, (3, 3)), (45, (9, 5)), (100, (10, 10)), (169, (13, 13)), (200, (20, 10))],
+)
+def test_net_for_table1_counts(n, expected):
+    shape = control_net_shape(n, PAPER_ASPECT)
+    assert (shape.m_u, shape.m_v) == expected and shape.rule == "exact" and shape.size == n
+
+
+def test_net_follows_the_aspect_ratio():
+    s = control_net_shape(45, 1 / PAPER_ASPECT)
+    assert (s.m_u, s.m_v) == (5, 9)
+    s = control_net_shape(200, 1 / 1.9)
+    assert (s.m_u, s.m_v) == (10, 20)
+
+
+@pytest.mark.parametrize(("n", "aspect"), [(101, 1.2), (202, 1.0), (201, 1.0), (97, 3.0)])
+def test_fallback_net_has_at_least_n_nodes(n, aspect):
+    s = control_net_shape(n, aspect)
+    assert s.rule == "fallback" and s.size >= n and min(s.m_u, s.m_v) >= 3
+    assert s.size < n + max(s.m_u, s.m_v)  # no more than one extra row or column
+
+
+def test_degree_three_needs_four_per_direction():
+    s = control_net_shape(169, 1.0, degree=3)
+    assert (s.m_u, s.m_v) == (13, 13)
+    with pytest.raises(InputError, match=r"4 x 4 = 16 control points.*only 9"):
+        control_net_shape(9, 1.0, degree=3)
+    with pytest.raises(InputError, match="only 8 points"):
+        control_net_shape(8, 1.0, degree=2)
+
+
+@pytest.mark.parametrize("degree", [0, -1, 2.5, True])
+def test_bad_degree(degree):
+    with pytest.raises(InputError, match="degree"):
+        control_net_shape(100, 1.0, degree=degree)
+
+
+def test_clamped_uniform_knots():
+    np.testing.assert_array_equal(clamped_uniform_knots(3, 2), [0, 0, 0, 1, 1, 1])
+    np.testing.assert_allclose(clamped_uniform_knots(5, 2), [0, 0, 0, 1 / 3, 2 / 3, 1, 1, 1])
+    np.testing.assert_allclose(clamped_uniform_knots(6, 3), [0, 0, 0, 0, 1 / 3, 2 / 3, 1, 1, 1, 1])
+    for m, p in ((9, 2), (10, 2), (13, 3), (20, 1)):
+        k = clamped_uniform_knots(m, p)
+        assert k.size == m + p + 1 and np.all(np.diff(k) >= 0)
+        np.testing.assert_allclose(np.diff(k[p : m + 1]), 1 / (m - p))  # uniform interior
+    with pytest.raises(InputError, match="cannot carry"):
+        clamped_uniform_knots(2, 2)
+
+
+@pytest.mark.parametrize("n", [9, 45, 100, 169, 200])
+def test_fit_matches_documented_rules(n):
+    cloud = random_cloud(n, step=1.0, rng=n)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DuplicatePointsWarning)
+        s = fit_nurbs(cloud)
+    p = s.patch
+    m_u, m_v = p.net_shape
+    assert (m_u, m_v) == (s.net.m_u, s.net.m_v)
+    assert p.degree_u == p.degree_v == 2
+    np.testing.assert_array_equal(p.knots_u, clamped_uniform_knots(m_u, 2))
+    np.testing.assert_array_equal(p.knots_v, clamped_uniform_knots(m_v, 2))
+    np.testing.assert_array_equal(p.weights, 1.0)
+    assert not p.rational
+    # control points: a uniform grid over the bounding box of the projected cloud
+    np.testing.assert_allclose(
+        p.control_points[:, 0, 0], np.linspace(cloud[:, 0].min(), cloud[:, 0].max(), m_u)
+    )
+    np.testing.assert_allclose(
+        p.control_points[0, :, 1], np.linspace(cloud[:, 1].min(), cloud[:, 1].max(), m_v)
+    )
+    assert s.tessellation.shape == (50, 50, 3) and s.evaluator == "geomdl"
+    assert 0 <= s.n_filled < m_u * m_v
+
+
+def test_planar_cloud_gives_planar_nurbs():
+    rng = np.random.default_rng(1)
+    xy = np.vstack([[[0, 0], [10, 0], [0, 8], [10, 8]], rng.random((40, 2)) * [10, 8]])
+    cloud = np.column_stack([xy, 0.3 * xy[:, 0] - 0.2 * xy[:, 1] + 1.0])
+    s = fit_nurbs(cloud, depth="z")
+    assert s.n_filled == 0
+    pts = evaluate(s.patch, np.random.default_rng(2).random((500, 2)))
+    np.testing.assert_allclose(pts[:, 2], 0.3 * pts[:, 0] - 0.2 * pts[:, 1] + 1.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("degree", [1, 2, 3])
+def test_bilinear_height_field_is_reproduced_exactly(degree):
+    """Control points on z = f(x, y) bilinear: the NURBS is f exactly (partition of unity)."""
+    x, y = np.meshgrid(np.linspace(0, 12, 6), np.linspace(-3, 5, 5), indexing="ij")
+    z = (1.5 + 0.4 * x) * (2.0 - 0.3 * y)
+    cloud = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    s = fit_nurbs(cloud, degree=degree, net=(6, 5), depth="z")
+    assert s.n_filled == 0
+    pts = evaluate(s.patch, np.random.default_rng(3).random((400, 2)))
+    np.testing.assert_allclose(pts[:, 2], (1.5 + 0.4 * pts[:, 0]) * (2.0 - 0.3 * pts[:, 1]), atol=1e-12)
+
+
+def _random_patch(rng, m_u, m_v, p, rational):
+    pts = rng.normal(size=(m_u, m_v, 3))
+    w = rng.random((m_u, m_v)) + 0.5 if rational else np.ones((m_u, m_v))
+    return NurbsPatch(p, p, clamped_uniform_knots(m_u, p), clamped_uniform_knots(m_v, p), pts, w)
+
+
+@pytest.mark.parametrize("rational", [False, True])
+@pytest.mark.parametrize(("m_u", "m_v", "p"), [(3, 3, 2), (20, 20, 2), (9, 5, 3), (4, 7, 1)])
+def test_fast_evaluator_agrees_with_geomdl(rational, m_u, m_v, p):
+    patch = _random_patch(np.random.default_rng(m_u * m_v + p), m_u, m_v, p, rational)
+    geo = patch.to_geomdl()
+    geo.sample_size_u, geo.sample_size_v = 17, 13
+    reference = np.asarray(geo.evalpts).reshape(17, 13, 3)
+    np.testing.assert_allclose(evaluate_grid(patch, (17, 13)), reference, rtol=0, atol=1e-12)
+
+
+def test_fast_and_geomdl_tessellations_agree():
+    cloud = random_cloud(100, rng=4)
+    a = fit_nurbs(cloud, evaluator="geomdl").tessellation
+    b = fit_nurbs(cloud, evaluator="fast").tessellation
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("rational", [False, True])
+def test_inversion_recovers_known_parameters(rational):
+    rng = np.random.default_rng(5)
+    patch = _random_patch(rng, 8, 6, 2, rational)
+    # make the net a height field over (x, y): monotone x along u, y along v
+    pts = np.array(patch.control_points)
+    pts[..., 0] = np.linspace(0, 10, 8)[:, None] + 0.3 * rng.random((8, 6))
+    pts[..., 1] = np.linspace(0, 6, 6)[None, :] + 0.2 * rng.random((8, 6))
+    patch = NurbsPatch(2, 2, patch.knots_u, patch.knots_v, pts, patch.weights)
+    params = np.vstack([rng.random((200, 2)), [[0, 0], [1, 1], [0, 0.5], [1e-7, 1 - 1e-7]]])
+    targets = evaluate(patch, params)[:, :2]
+    inv = invert(patch, targets, (0, 1))
+    assert inv.converged.all() and inv.residual.max() <= 1e-9
+    np.testing.assert_allclose(inv.params, params, atol=1e-7)
+    np.testing.assert_allclose(inv.points[:, :2], targets, atol=1e-9)
+
+
+def test_inversion_reports_targets_outside_the_footprint():
+    s = fit_nurbs(random_cloud(100, rng=6), tessellation=None)
+    targets = np.array([[-5.0, 10.0], [18.0, 45.0], [18.0, 15.0]])
+    inv = invert(s.patch, targets, s.projection_axes)
+    np.testing.assert_array_equal(inv.converged, [False, False, True])
+
+
+def test_parameter_grid_order_matches_geomdl():
+    g = parameter_grid((3, 2))
+    np.testing.assert_array_equal(g, [[0, 0], [0, 1], [0.5, 0], [0.5, 1], [1, 0], [1, 1]])
+
+
+def test_grid_fill_counts_nodes_outside_the_hull():
+    cloud = np.array([[5, 5, 1.0], [6, 5, 2.0], [5, 6, 3.0], [0, 0, 0.0], [10, 10, 0.0]])
+    from replication.surfaces import adt
+
+    g = grid_depths(adt(cloud, depth="z"), (3, 3))
+    # the hull is a thin quadrilateral along the diagonal: the four off-diagonal corners and
+    # edge midpoints are outside
+    assert g.n_filled == int(g.filled.sum()) and 0 < g.n_filled < 9
+    assert g.depth[0, 0] == 0.0 and g.depth[2, 2] == 0.0
+
+
+def test_bad_inputs():
+    with pytest.raises(InputError, match="NaN"):
+        fit_nurbs([[0, 0, 0], [1, 0, np.nan], [0, 1, 0]] * 4)
+    with pytest.raises(DegenerateInputError, match="collinear"):
+        fit_nurbs(np.column_stack([np.arange(12.0), np.arange(12.0), np.zeros(12)]), depth="z")
+    with pytest.raises(InputError, match="only 5 points"):
+        fit_nurbs(random_cloud(5, rng=0))
+    with pytest.raises(InputError, match="cannot carry degree 3"):
+        fit_nurbs(random_cloud(50, rng=0), degree=3, net=(3, 10))
+    with pytest.raises(InputError, match="tessellation"):
+        fit_nurbs(random_cloud(50, rng=0), tessellation=(1, 5))
+    with pytest.raises(InputError, match="evaluator"):
+        fit_nurbs(random_cloud(50, rng=0), evaluator="matlab")
+
+
+def test_patch_validation():
+    k = clamped_uniform_knots(3, 2)
+    pts = np.zeros((3, 3, 3))
+    with pytest.raises(InputError, match="weights"):
+        NurbsPatch(2, 2, k, k, pts, -np.ones((3, 3)))
+    with pytest.raises(InputError, match="knot vector u"):
+        NurbsPatch(2, 2, k[::-1], k, pts, np.ones((3, 3)))
+    with pytest.raises(InputError, match="shape"):
+        NurbsPatch(2, 2, k, k, np.zeros((3, 3, 2)), np.ones((3, 3)))
+
+
+def test_fit_is_deterministic():
+    cloud = random_cloud(100, rng=7)
+    a, b = fit_nurbs(cloud), fit_nurbs(cloud)
+    np.testing.assert_array_equal(a.patch.control_points, b.patch.control_points)
+    np.testing.assert_array_equal(a.tessellation, b.tessellation)
