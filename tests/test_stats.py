@@ -1,0 +1,126 @@
+"""Paired statistics: agreement with scipy, TOST behaviour, edge cases."""
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from replication.errors import InputError
+from replication.stats import paired_statistics
+
+
+@pytest.fixture
+def samples():
+    rng = np.random.default_rng(0)
+    a = rng.normal(5.0, 1.0, 60)
+    b = a + rng.normal(0.1, 0.3, 60)
+    return a, b
+
+
+def test_agrees_with_direct_scipy_calls(samples):
+    a, b = samples
+    st = paired_statistics(a, b, depth_range=10.0)
+    t = stats.ttest_rel(a, b)
+    w = stats.wilcoxon(a, b)
+    assert st.t_test.statistic == pytest.approx(t.statistic, rel=1e-12)
+    assert st.t_test.p_value == pytest.approx(t.pvalue, rel=1e-12)
+    assert st.wilcoxon.statistic == pytest.approx(w.statistic, rel=1e-12)
+    assert st.wilcoxon.p_value == pytest.approx(w.pvalue, rel=1e-12)
+    assert st.normality_p == pytest.approx(stats.shapiro(a - b).pvalue, rel=1e-12)
+    d = a - b
+    assert st.mean_difference == pytest.approx(d.mean())
+    assert st.sd_difference == pytest.approx(d.std(ddof=1))
+    assert st.cohens_dz == pytest.approx(d.mean() / d.std(ddof=1))
+    assert st.rms == pytest.approx(np.sqrt(np.mean(d**2)))
+    assert st.max_abs == pytest.approx(np.abs(d).max())
+    assert st.rms_percent == pytest.approx(10 * st.rms)  # 100 / depth range 10
+    ci = stats.ttest_rel(a, b).confidence_interval(0.95)
+    np.testing.assert_allclose(st.ci95, (ci.low, ci.high), rtol=1e-12)
+    ci90 = stats.ttest_rel(a, b).confidence_interval(0.90)
+    np.testing.assert_allclose(st.ci90, (ci90.low, ci90.high), rtol=1e-12)
+
+
+def test_tost_matches_two_one_sided_scipy_tests(samples):
+    a, b = samples
+    st = paired_statistics(a, b, depth_range=10.0, margin_fraction=0.05)
+    d = a - b
+    p1 = stats.ttest_1samp(d, -0.5, alternative="greater").pvalue
+    p2 = stats.ttest_1samp(d, 0.5, alternative="less").pvalue
+    assert st.margin == pytest.approx(0.5)
+    assert st.tost_p == pytest.approx(max(p1, p2), rel=1e-12)
+    # TOST at alpha <=> the 90% CI lies within the margin
+    assert st.equivalent == (-0.5 < st.ci90[0] and st.ci90[1] < 0.5)
+
+
+def test_tost_declares_identical_surfaces_with_noise_equivalent():
+    rng = np.random.default_rng(1)
+    a = rng.random(200) * 13
+    st = paired_statistics(a, a + rng.normal(0, 0.05, 200), depth_range=13.0)
+    assert st.equivalent and st.tost_p < 1e-10
+
+
+def test_tost_refuses_surfaces_offset_beyond_the_margin():
+    rng = np.random.default_rng(2)
+    a = rng.random(200) * 13
+    st = paired_statistics(a, a + 1.0 + rng.normal(0, 0.05, 200), depth_range=13.0)  # margin 0.65
+    assert not st.equivalent
+    # ...while the paper's logic would call large offsets "different", it calls a noisy small
+    # sample "similar": failing to reject is not evidence of similarity
+    small = paired_statistics(a[:5], a[:5] + rng.normal(0, 3.0, 5), depth_range=13.0)
+    assert small.paper_verdict == "similar" and not small.equivalent
+
+
+def test_normality_picks_the_test():
+    rng = np.random.default_rng(3)
+    a = rng.random(300)
+    normal = paired_statistics(a, a + rng.normal(0, 0.1, 300), depth_range=1.0)
+    skewed = paired_statistics(a, a + rng.exponential(0.1, 300) ** 3, depth_range=1.0)
+    assert normal.recommended_test == "t-test"
+    assert skewed.recommended_test == "Wilcoxon signed-rank"
+
+
+def test_large_samples_use_dagostino():
+    rng = np.random.default_rng(4)
+    a = rng.random(6000)
+    b = a + rng.normal(0, 0.1, 6000)
+    st = paired_statistics(a, b, depth_range=1.0)
+    assert st.normality_test == "D'Agostino-Pearson"
+    assert st.normality_p == pytest.approx(stats.normaltest(a - b).pvalue, rel=1e-12)
+
+
+def test_identical_samples_are_settled_explicitly():
+    a = np.arange(10.0)
+    st = paired_statistics(a, a, depth_range=9.0)
+    assert st.t_test.p_value == 1.0 and st.wilcoxon.p_value == 1.0
+    assert st.equivalent and st.paper_verdict == "similar" and st.cohens_dz == 0.0
+
+
+def test_constant_offset():
+    a = np.arange(10.0)
+    st = paired_statistics(a, a - 2.0, depth_range=9.0)
+    assert st.t_test.p_value == 0.0 and not st.equivalent and st.paper_verdict == "different"
+
+
+def test_as_dict_is_json_ready(samples):
+    import json
+
+    d = paired_statistics(*samples, depth_range=10.0).as_dict()
+    assert d["paper_verdict"] in ("similar", "different")
+    assert set(d["t_test"]) == {"statistic", "p_value", "similar"}
+    json.dumps(d)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"a": [1, 2], "b": [1, 2]}, "at least 3 pairs"),
+        ({"a": [1, 2, 3], "b": [1, 2]}, "equal length"),
+        ({"a": [1, 2, np.nan], "b": [1, 2, 3]}, "NaN"),
+        ({"depth_range": 0.0}, "depth range"),
+        ({"alpha": 1.5}, "alpha"),
+        ({"margin_fraction": 0.0}, "margin"),
+    ],
+)
+def test_bad_arguments(kwargs, match):
+    args = {"a": [1.0, 2.0, 3.5, 4.0], "b": [1.1, 2.0, 3.0, 4.2], "depth_range": 3.0} | kwargs
+    with pytest.raises(InputError, match=match):
+        paired_statistics(args.pop("a"), args.pop("b"), **args)
