@@ -1,11 +1,13 @@
 """Reproducible replication of "adapted Delaunay triangulation" (ADT) surfaces.
 
-The public API: point clouds and ADT surfaces (:mod:`replication.surfaces`), file formats
+The public API: point clouds, ADT and NURBS surfaces (:mod:`replication.surfaces`), their
+paired comparison (:mod:`replication.compare`, :mod:`replication.stats`), file formats
 (:mod:`replication.io`) and the error hierarchy (:mod:`replication.errors`).
 """
 
 from importlib.metadata import PackageNotFoundError, version
 
+from replication.compare import Comparison, compare
 from replication.errors import (
     CloudFileError,
     DegenerateInputError,
@@ -15,6 +17,8 @@ from replication.errors import (
     ReplicationError,
 )
 from replication.io import load_cloud, read_surface, save_cloud, write_surface, write_vtk, write_vtp
+from replication.io.nurbs import read_nurbs, write_nurbs
+from replication.stats import PairedStatistics, paired_statistics
 from replication.surfaces import (
     Box,
     ClosedSurface,
@@ -25,6 +29,7 @@ from replication.surfaces import (
     random_cloud,
     select_depth_axis,
 )
+from replication.surfaces.nurbs import NurbsPatch, NurbsSurface, fit_nurbs
 
 try:
     __version__ = version("replication")
@@ -33,6 +38,10 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
 
 __all__ = [
     "Box",
+    "Comparison",
+    "NurbsPatch",
+    "NurbsSurface",
+    "PairedStatistics",
     "ClosedSurface",
     "CloudFileError",
     "DegenerateInputError",
@@ -45,11 +54,16 @@ __all__ = [
     "__version__",
     "adt",
     "closed_adt",
+    "compare",
+    "fit_nurbs",
     "load_cloud",
+    "paired_statistics",
     "random_cloud",
+    "read_nurbs",
     "read_surface",
     "save_cloud",
     "select_depth_axis",
+    "write_nurbs",
     "write_surface",
     "write_vtk",
     "write_vtp",

@@ -165,3 +165,111 @@ def test_python_dash_m_entry_point():
         [sys.executable, "-m", "replication", "--version"], capture_output=True, text=True, check=True
     )
     assert result.stdout.startswith("replication ")
+
+
+# ---- nurbs and compare ------------------------------------------------------------------------
+
+
+def test_nurbs_writes_a_file_geomdl_reads(capsys, cloud_file, tmp_path):
+    from replication.io.nurbs import read_nurbs
+
+    out_path = tmp_path / "n.smesh"
+    code, out, err = run(capsys, "nurbs", str(cloud_file), "-o", str(out_path))
+    assert code == 0, err
+    assert "degree 2" in out and "control net" in out and f"{out_path.stat().st_size:,} bytes" in out
+    patch = read_nurbs(out_path)
+    assert patch.degree_u == 2 and patch.net_shape[0] * patch.net_shape[1] == 40
+
+
+def test_nurbs_json(capsys, tmp_path):
+    code, out, _ = run(
+        capsys,
+        "nurbs",
+        "--random",
+        "45",
+        "--seed",
+        "3",
+        "-o",
+        str(tmp_path / "n.json"),
+        "--json",
+        "--evaluator",
+        "fast",
+    )
+    assert code == 0
+    r = json.loads(out)
+    assert r["net"] == [9, 5] and r["net_rule"] == "exact" and r["degree"] == [2, 2]
+    assert r["knots_u"][:3] == [0, 0, 0] and r["bytes"] == (tmp_path / "n.json").stat().st_size
+    assert r["format"] == "json" and r["evaluator"] == "fast"
+
+
+def test_nurbs_bad_degree_for_the_cloud(capsys):
+    code, _, err = run(capsys, "nurbs", "--random", "9", "--seed", "1", "--degree", "3")
+    assert code == 1 and "16 control points" in err
+
+
+def test_compare_human(capsys, cloud_file):
+    code, out, err = run(capsys, "compare", str(cloud_file))
+    assert code == 0, err
+    for phrase in (
+        "pairing nurbs-samples",
+        "pairing cloud-points",
+        "paired t-test",
+        "Wilcoxon",
+        "TOST",
+        "Cohen",
+    ):
+        assert phrase in out
+
+
+def test_compare_json_has_everything(capsys, cloud_file):
+    code, out, _ = run(capsys, "compare", str(cloud_file), "--json", "--margin", "0.1")
+    assert code == 0
+    r = json.loads(out)
+    assert r["margin_fraction"] == 0.1 and r["depth_axis"] == "z"
+    for name in ("nurbs-samples", "cloud-points"):
+        p = r["pairings"][name]
+        st = p["statistics"]
+        assert p["pairs"] == st["n"] and p["candidates"] >= p["pairs"]
+        assert 0 <= st["t_test"]["p_value"] <= 1 and 0 <= st["wilcoxon"]["p_value"] <= 1
+        assert isinstance(st["equivalent"], bool) and st["paper_verdict"] in ("similar", "different")
+        assert st["margin"] == pytest.approx(0.1 * r["depth_range"])
+        assert len(st["ci95"]) == 2
+
+
+def test_compare_matches_the_library(capsys, cloud_file):
+    from replication.compare import compare
+
+    code, out, _ = run(capsys, "compare", str(cloud_file), "--json")
+    lib = compare(load_cloud(cloud_file))
+    st = json.loads(out)["pairings"]["cloud-points"]["statistics"]
+    assert st["t_test"]["p_value"] == lib.statistics["cloud-points"].t_test.p_value
+
+
+def test_compare_too_few_pairs_is_reported_not_an_error(capsys, tmp_path):
+    small = np.array(
+        [
+            [0, 0, 0],
+            [10, 10, 1],
+            [5, 5, 2],
+            [6, 4, 0],
+            [4, 6, 1],
+            [5, 4, 2],
+            [4, 5, 0],
+            [6, 5, 1],
+            [5, 6, 2.0],
+        ]
+    )
+    save_cloud(small, tmp_path / "s.csv")
+    code, out, _ = run(capsys, "compare", str(tmp_path / "s.csv"), "--samples", "2x2", "--depth", "z")
+    assert code == 0 and "too few pairs" in out
+    code, out, _ = run(
+        capsys, "compare", str(tmp_path / "s.csv"), "--samples", "2x2", "--depth", "z", "--json"
+    )
+    assert json.loads(out)["pairings"]["nurbs-samples"]["statistics"] is None
+
+
+@pytest.mark.parametrize("bad", ["5", "5x", "axb", "0x4"])
+def test_bad_net_argument(bad):
+    with pytest.raises(SystemExit) as exc:
+        main(["compare", "x.csv", "--net", bad])
+    assert exc.value.code == 2

@@ -1,26 +1,20 @@
-"""The ``replication`` command line.
-
-Only this module prints or sets an exit status: library errors (:class:`ReplicationError`)
-become a one-line message on stderr and exit status 1; usage errors exit with status 2
-(argparse); an interrupt exits with 130.
-"""
+"""``replication adt``, ``replication nurbs`` and ``replication compare``."""
 
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 import time
-import warnings
-from collections.abc import Callable, Sequence
 from typing import Any
 
-import numpy as np
-
-from replication import __version__
-from replication.errors import DuplicatePointsWarning, InputError, ReplicationError
-
-__all__ = ["main", "build_parser"]
+from replication.cli.common import (
+    add_cloud_source,
+    add_frame_options,
+    check_output,
+    emit_json,
+    load_or_generate,
+    pair,
+    relay_warnings,
+)
 
 EPILOG_ADT = """\
 examples:
@@ -39,115 +33,34 @@ in the projection plane become one vertex by --duplicates (default: mean depth, 
 warning); --duplicates raise refuses such clouds instead.
 """
 
+EPILOG_NURBS = """\
+examples:
+  replication nurbs cloud.csv -o surface.smesh
+  replication nurbs --random 45 --seed 3 --step 1 -o surface.json --json
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
-    return value
+The paper's baseline (section 3.1): the cloud is interpolated linearly onto a rectangular
+grid over its bounding box (nodes outside the convex hull take the nearest point's depth),
+the grid nodes become control points with weight 1, and the knot vectors are clamped with
+uniform interior knots. The net has m_u x m_v = n control points when n factors with a side
+ratio near the cloud's aspect ratio, otherwise about n (fallback). .smesh is the compact
+complete ASCII format geomdl reads back (geomdl.exchange.import_smesh); .json is geomdl's
+JSON exchange format.
+"""
 
+EPILOG_COMPARE = """\
+examples:
+  replication compare cloud.csv
+  replication compare --random 200 --seed 1 --step 1 --json
 
-def _add_adt_parser(sub: argparse._SubParsersAction) -> None:
-    from replication.io import CLOUD_SUFFIXES, SURFACE_FORMATS
-    from replication.surfaces import BACKENDS, DEPTH_RULES, DUPLICATE_POLICIES
-
-    p = sub.add_parser(
-        "adt",
-        help="build an ADT surface from a point cloud (paper section 3.2)",
-        description=(
-            "Build an adapted-Delaunay-triangulation (ADT) surface: choose a depth axis from the "
-            "spread of the coordinates, project the points onto the other two axes, "
-            "triangulate in 2-D and lift the triangles back to 3-D. Every input point is a "
-            "vertex of the surface (after merging points that share a projected position)."
-        ),
-        epilog=EPILOG_ADT,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    p.add_argument(
-        "input",
-        nargs="?",
-        metavar="INPUT",
-        help=f"point-cloud file ({', '.join(CLOUD_SUFFIXES)}); omit when using --random",
-    )
-    p.add_argument(
-        "-o", "--output", metavar="OUT", help="surface file to write (.vtk or .vtp); omit to write nothing"
-    )
-    p.add_argument(
-        "--format",
-        choices=SURFACE_FORMATS,
-        help="vtk: compact legacy ASCII; vtp: binary VTK XML (default: from the OUT suffix)",
-    )
-    p.add_argument(
-        "--depth",
-        choices=DEPTH_RULES,
-        default="min",
-        help="depth axis: the axis of min or max spread, or an imposed axis (default: min)",
-    )
-    p.add_argument(
-        "--duplicates",
-        choices=DUPLICATE_POLICIES,
-        default="mean",
-        help="points sharing a projected position: merge with the mean/min/max/first depth, "
-        "or raise an error (default: mean)",
-    )
-    p.add_argument(
-        "--split",
-        metavar="AXIS=OFFSET",
-        help="closed surface: split the cloud by the plane AXIS=OFFSET (e.g. z=0) and stitch the two halves",
-    )
-    p.add_argument(
-        "--backend", choices=BACKENDS, default="auto", help="2-D Delaunay backend (default: auto = sweephull)"
-    )
-    g = p.add_argument_group("random cloud (instead of INPUT)")
-    g.add_argument("--random", type=_positive_int, metavar="N", help="generate N random points")
-    g.add_argument("--seed", type=int, default=None, metavar="S", help="random seed (default: fresh entropy)")
-    g.add_argument(
-        "--box",
-        type=float,
-        nargs=6,
-        metavar=("XMIN", "XMAX", "YMIN", "YMAX", "ZMIN", "ZMAX"),
-        help="domain of the random cloud (default: the case study's 0 36 0 30 0 13, in mm)",
-    )
-    g.add_argument(
-        "--step", type=float, metavar="H", help="draw coordinates on a lattice of step H (the case study: 1)"
-    )
-    g.add_argument(
-        "--save-cloud", metavar="FILE", help="also write the generated points (.csv, .txt, .xyz, .npy)"
-    )
-    p.add_argument("--json", action="store_true", help="print one JSON object describing what was done")
-    p.set_defaults(func=_cmd_adt)
-
-
-def _load_or_generate(args: argparse.Namespace) -> tuple[np.ndarray, str, dict[str, Any]]:
-    from replication.io import load_cloud
-    from replication.surfaces import CASE_STUDY_BOX, Box, random_cloud
-
-    if args.random is None:
-        if args.input is None:
-            raise InputError("give a point-cloud file INPUT, or --random N for a generated cloud")
-        for flag in ("seed", "box", "step", "save_cloud"):
-            if getattr(args, flag) is not None:
-                raise InputError(f"--{flag.replace('_', '-')} applies only with --random")
-        return load_cloud(args.input), str(args.input), {}
-    if args.input is not None:
-        raise InputError(f"give either INPUT ({args.input}) or --random, not both")
-    box = CASE_STUDY_BOX if args.box is None else Box.from_bounds(args.box)
-    seed = args.seed if args.seed is not None else int(np.random.SeedSequence().entropy % 2**32)
-    cloud = random_cloud(args.random, box, step=args.step, rng=seed)
-    meta: dict[str, Any] = {
-        "seed": seed,
-        "box": list(map(float, (box.xmin, box.xmax, box.ymin, box.ymax, box.zmin, box.zmax))),
-        "step": args.step,
-    }
-    if args.save_cloud:
-        from replication.io import save_cloud
-
-        meta["cloud_file"] = args.save_cloud
-        meta["cloud_bytes"] = save_cloud(cloud, args.save_cloud)
-    return cloud, f"{args.random} random points (seed {seed})", meta
+Two pairings of depths at the same position: (a) nurbs-samples, at points evaluated on the
+NURBS surface (ADT depth by barycentric interpolation; samples outside the ADT footprint are
+excluded), and (b) cloud-points, at the cloud's own positions (NURBS depth by Newton
+inversion to 1e-9). For each: the paper's paired t-test and Wilcoxon signed-rank test with
+its verdict ("similar" when the test fails to reject), and what that logic lacks: the mean
+difference with its 95 % confidence interval, Cohen's d_z, RMS and maximum deviation as a
+percentage of the depth range, a normality check, and a TOST equivalence test with a
+margin of 5 % of the depth range.
+"""
 
 
 def _cmd_adt(args: argparse.Namespace) -> int:
@@ -155,14 +68,10 @@ def _cmd_adt(args: argparse.Namespace) -> int:
     from replication.surfaces import AXES, adt, closed_adt, parse_split
 
     fmt = surface_format(args.output, args.format) if args.output else args.format
-    if args.output:
-        from replication.io.atomic import check_output_path
-
-        check_output_path(args.output)  # fail before any work
+    check_output(args.output)
     start = time.perf_counter()
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", DuplicatePointsWarning)
-        cloud, source, meta = _load_or_generate(args)
+    with relay_warnings():
+        cloud, source, meta = load_or_generate(args)
         if args.split:
             closed = closed_adt(
                 cloud, parse_split(args.split), duplicates=args.duplicates, backend=args.backend
@@ -178,10 +87,6 @@ def _cmd_adt(args: argparse.Namespace) -> int:
                 "points_merged": sum(h.n_merged for h in halves),
             }
         else:
-            if (
-                args.depth not in ("min", "max") and args.depth not in AXES
-            ):  # pragma: no cover - argparse guards
-                raise InputError(f"bad depth rule {args.depth!r}")
             surface = adt(cloud, depth=args.depth, duplicates=args.duplicates, backend=args.backend)
             mesh = surface
             halves = (surface,)
@@ -208,11 +113,8 @@ def _cmd_adt(args: argparse.Namespace) -> int:
         "build_seconds": build_s,
         **meta,
     }
-    for w in caught:  # merges are reported below and in the JSON; other warnings go to stderr
-        if not issubclass(w.category, DuplicatePointsWarning):
-            print(f"warning: {w.message}", file=sys.stderr)
     if args.json:
-        print(json.dumps(report))
+        emit_json(report)
         return 0
     print(
         f"ADT surface from {source}: {report['points']} points -> "
@@ -226,65 +128,239 @@ def _cmd_adt(args: argparse.Namespace) -> int:
         plane = ", ".join(info["projection_axes"])
         rule = info["depth_rule"]
         print(f"depth axis {info['depth_axis']} (rule {rule}; std {spreads}); triangulated in ({plane})")
+    _print_merges_and_outputs(report, args)
+    return 0
+
+
+def _print_merges_and_outputs(report: dict[str, Any], args: argparse.Namespace) -> None:
     if report["points_merged"]:
         merged = report["points_merged"]
         print(f"merged {merged} point(s) sharing a projected position (policy {args.duplicates})")
     if args.output:
-        kind = "legacy VTK, ASCII" if fmt == "vtk" else "VTK XML, binary"
+        kind = {"vtk": "legacy VTK, ASCII", "vtp": "VTK XML, binary"}[report["format"]]
+        print(f"wrote {args.output} ({report['bytes']:,} bytes, {kind})")
+    else:
+        print("no output file written (use -o OUT)")
+    if "cloud_file" in report:
+        print(f"wrote the cloud to {report['cloud_file']} ({report['cloud_bytes']:,} bytes)")
+
+
+def _cmd_nurbs(args: argparse.Namespace) -> int:
+    from replication.io.nurbs import nurbs_format, write_nurbs
+    from replication.surfaces.nurbs import fit_nurbs
+
+    fmt = nurbs_format(args.output, args.format) if args.output else args.format
+    check_output(args.output)
+    start = time.perf_counter()
+    with relay_warnings():
+        cloud, source, meta = load_or_generate(args)
+        nurbs = fit_nurbs(
+            cloud,
+            degree=args.degree,
+            net=args.net,
+            depth=args.depth,
+            duplicates=args.duplicates,
+            backend=args.backend,
+            tessellation=args.tessellation,
+            evaluator=args.evaluator,
+        )
+    build_s = time.perf_counter() - start
+    written = write_nurbs(nurbs.patch, args.output, fmt) if args.output else None
+    m_u, m_v = nurbs.patch.net_shape
+    report: dict[str, Any] = {
+        "input": source,
+        "points": int(cloud.shape[0]),
+        "depth_axis": nurbs.depth_axis_name,
+        "degree": [nurbs.patch.degree_u, nurbs.patch.degree_v],
+        "net": [m_u, m_v],
+        "net_rule": nurbs.net.rule,
+        "control_points": m_u * m_v,
+        "grid_nodes_filled": nurbs.n_filled,
+        "knots_u": nurbs.patch.knots_u.tolist(),
+        "knots_v": nurbs.patch.knots_v.tolist(),
+        "tessellation": list(args.tessellation),
+        "evaluator": args.evaluator,
+        "output": args.output,
+        "format": fmt if args.output else None,
+        "bytes": written,
+        "build_seconds": build_s,
+        **meta,
+    }
+    if args.json:
+        emit_json(report)
+        return 0
+    plane = "-".join(a for a in "xyz" if a != nurbs.depth_axis_name)
+    print(
+        f"NURBS surface from {source}: degree {args.degree}, {m_u} x {m_v} control net "
+        f"({nurbs.net.rule} rule), a height field over the {plane} plane"
+    )
+    print(
+        f"{nurbs.n_filled} of {m_u * m_v} grid nodes lie outside the cloud's convex hull "
+        "and took the nearest point's depth"
+    )
+    if args.output:
+        kind = {"smesh": "compact smesh, ASCII", "json": "geomdl JSON"}[fmt]
         print(f"wrote {args.output} ({written:,} bytes, {kind})")
     else:
         print("no output file written (use -o OUT)")
-    if "cloud_file" in meta:
-        print(f"wrote the cloud to {meta['cloud_file']} ({meta['cloud_bytes']:,} bytes)")
     return 0
 
 
-def _cmd_reproduce(args: argparse.Namespace) -> int:
-    print("replication reproduce: regenerating the paper's results")
-    print("stages still to come (not yet available in this version):")
-    for name, what in (
-        ("table1", "Table 1 and Fig. 6: file size, computation time and paired statistics, ADT vs NURBS"),
-        ("casestudy", "Figs. 8 and 9: the water-jet genetic algorithm"),
-    ):
-        print(f"  - {name}: {what} [not yet available]")
-    return 0
+def _format_stats(name: str, pairs: Any, st: Any) -> list[str]:
+    head = f"pairing {name}: {pairs.n} pairs of {pairs.n_candidates}"
+    excluded = pairs.n_outside_adt + pairs.n_outside_nurbs
+    if excluded:
+        where = "ADT" if pairs.n_outside_adt else "NURBS"
+        head += f" ({excluded} outside the {where} footprint, excluded)"
+    if st is None:
+        return [head, "  too few pairs for the tests (need 3)"]
+    lo, hi = st.ci95
+    return [
+        head,
+        f"  paired t-test      t = {st.t_test.statistic:.4g}, p = {st.t_test.p_value:.4g}"
+        f"  -> paper's verdict: {'similar' if st.t_test.similar else 'different'}",
+        f"  Wilcoxon test      W = {st.wilcoxon.statistic:.4g}, p = {st.wilcoxon.p_value:.4g}"
+        f"  -> paper's verdict: {'similar' if st.wilcoxon.similar else 'different'}",
+        f"  mean difference    {st.mean_difference:.4g} (95% CI {lo:.4g} to {hi:.4g}), "
+        f"Cohen's d_z {st.cohens_dz:.3g}",
+        f"  deviation          RMS {st.rms:.4g} ({st.rms_percent:.1f}% of depth range), "
+        f"max {st.max_abs:.4g} ({st.max_abs_percent:.1f}%)",
+        f"  normality          {st.normality_test} p = {st.normality_p:.3g} -> use the {st.recommended_test}",
+        f"  equivalence (TOST) margin +-{st.margin:.4g} ({100 * st.margin_fraction:g}% of range): "
+        f"p = {st.tost_p:.3g} -> {'equivalent' if st.equivalent else 'NOT shown equivalent'}",
+    ]
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="replication",
-        description=(
-            "Reproduce 'adapted Delaunay triangulation' (ADT) surfaces from random point clouds, "
-            "their comparison with NURBS, and the paper's water-jet case study."
-        ),
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from replication.compare import compare
+
+    with relay_warnings():
+        cloud, source, meta = load_or_generate(args)
+        result = compare(
+            cloud,
+            degree=args.degree,
+            net=args.net,
+            depth=args.depth,
+            duplicates=args.duplicates,
+            backend=args.backend,
+            sample_shape=args.samples,
+            margin_fraction=args.margin,
+            alpha=args.alpha,
+        )
+    m_u, m_v = result.nurbs.patch.net_shape
+    pairings: dict[str, Any] = {}
+    for name, p in result.pairings.items():
+        st = result.statistics[name]
+        pairings[name] = {
+            "pairs": p.n,
+            "candidates": p.n_candidates,
+            "outside_adt": p.n_outside_adt,
+            "outside_nurbs": p.n_outside_nurbs,
+            "statistics": None if st is None else st.as_dict(),
+        }
+    report: dict[str, Any] = {
+        "input": source,
+        "points": int(cloud.shape[0]),
+        "depth_axis": result.adt.depth_axis_name,
+        "depth_range": result.depth_range,
+        "adt": {"vertices": result.adt.n_vertices, "triangles": result.adt.n_triangles},
+        "nurbs": {"degree": args.degree, "net": [m_u, m_v], "net_rule": result.nurbs.net.rule},
+        "alpha": args.alpha,
+        "margin_fraction": args.margin,
+        "pairings": pairings,
+        **meta,
+    }
+    if args.json:
+        emit_json(report)
+        return 0
+    print(
+        f"ADT vs NURBS for {source}: depth axis {report['depth_axis']}, "
+        f"depth range {result.depth_range:.4g}; NURBS degree {args.degree}, {m_u} x {m_v} net"
     )
-    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    _add_adt_parser(sub)
+    for name in result.pairings:
+        print("\n".join(_format_stats(name, result.pairings[name], result.statistics[name])))
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the adt, nurbs and compare subcommands."""
+    from replication.io import SURFACE_FORMATS
+    from replication.io.nurbs import NURBS_FORMATS
+
     p = sub.add_parser(
-        "reproduce",
-        help="regenerate the paper's tables and figures into reports/",
-        description="Run every available stage of the replication and regenerate the reports.",
+        "adt",
+        help="build an ADT surface from a point cloud (paper section 3.2)",
+        description=(
+            "Build an adapted-Delaunay-triangulation (ADT) surface: choose a depth axis from the "
+            "spread of the coordinates, project the points onto the other two axes, "
+            "triangulate in 2-D and lift the triangles back to 3-D. Every input point is a "
+            "vertex of the surface (after merging points that share a projected position)."
+        ),
+        epilog=EPILOG_ADT,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--quick", action="store_true", help="a reduced run for smoke testing")
-    p.set_defaults(func=_cmd_reproduce)
-    return parser
+    add_cloud_source(p)
+    p.add_argument(
+        "-o", "--output", metavar="OUT", help="surface file to write (.vtk or .vtp); omit to write nothing"
+    )
+    p.add_argument(
+        "--format",
+        choices=SURFACE_FORMATS,
+        help="vtk: compact legacy ASCII; vtp: binary VTK XML (default: from the OUT suffix)",
+    )
+    add_frame_options(p)
+    p.add_argument(
+        "--split",
+        metavar="AXIS=OFFSET",
+        help="closed surface: split the cloud by the plane AXIS=OFFSET (e.g. z=0) and stitch the two halves",
+    )
+    p.add_argument("--json", action="store_true", help="print one JSON object describing what was done")
+    p.set_defaults(func=_cmd_adt)
 
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``replication`` command; returns the exit status."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    func: Callable[[argparse.Namespace], int] = args.func
-    try:
-        return func(args)
-    except ReplicationError as exc:
-        print(f"replication {args.command}: error: {exc}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print(f"replication {args.command}: interrupted", file=sys.stderr)
-        return 130
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    for name, func, helptext, epilog in (
+        ("nurbs", _cmd_nurbs, "fit the paper's NURBS baseline to a point cloud (section 3.1)", EPILOG_NURBS),
+        ("compare", _cmd_compare, "paired statistics of ADT vs NURBS depths (section 4)", EPILOG_COMPARE),
+    ):
+        p = sub.add_parser(
+            name,
+            help=helptext,
+            description=helptext[0].upper() + helptext[1:] + ".",
+            epilog=epilog,
+            formatter_class=argparse.RawDescriptionHelpFormatter,
+        )
+        add_cloud_source(p)
+        if name == "nurbs":
+            p.add_argument("-o", "--output", metavar="OUT", help="NURBS file to write (.smesh or .json)")
+            p.add_argument("--format", choices=NURBS_FORMATS, help="default: from the OUT suffix")
+            p.add_argument(
+                "--tessellation",
+                type=pair,
+                default=(50, 50),
+                metavar="SUxSV",
+                help="parameter samples evaluated as part of the build (default 50x50)",
+            )
+            p.add_argument(
+                "--evaluator",
+                choices=("geomdl", "fast"),
+                default="geomdl",
+                help="evaluate the tessellation with geomdl (reference) or scipy (fast)",
+            )
+        else:
+            p.add_argument(
+                "--samples",
+                type=pair,
+                metavar="SUxSV",
+                help="NURBS samples for pairing (a) (default: the control-net size)",
+            )
+            p.add_argument(
+                "--margin",
+                type=float,
+                default=0.05,
+                help="equivalence margin as a fraction of the depth range (default 0.05)",
+            )
+            p.add_argument("--alpha", type=float, default=0.05, help="significance level (default 0.05)")
+        p.add_argument("--degree", type=int, default=2, help="NURBS degree in both directions (default 2)")
+        p.add_argument("--net", type=pair, metavar="MUxMV", help="impose the control net, e.g. 9x5")
+        add_frame_options(p)
+        p.add_argument("--json", action="store_true", help="print one JSON object")
+        p.set_defaults(func=func)
