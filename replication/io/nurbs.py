@@ -30,10 +30,14 @@ __all__ = ["NURBS_FORMATS", "nurbs_format", "read_nurbs", "smesh_text", "write_n
 NURBS_FORMATS: tuple[str, ...] = ("smesh", "json")
 
 
-def smesh_text(patch: NurbsPatch) -> str:
-    """The compact smesh text of a NURBS patch."""
+def smesh_text(patch: NurbsPatch, *, digits: int | None = None) -> str:
+    """The compact smesh text of a NURBS patch.
+
+    ``digits=None`` writes the shortest exact decimals; an integer writes that many
+    significant digits (lossy, for comparisons at equal precision).
+    """
     m_u, m_v = patch.net_shape
-    fmt = format_number
+    fmt = format_number if digits is None else (lambda v: format_number(float(f"{v:.{int(digits)}g}")))
     lines = [
         "3",
         f"{patch.degree_u} {patch.degree_v}",

@@ -50,8 +50,14 @@ def format_number(value: float) -> str:
     return _strip_zero(repr(float(value)))
 
 
-def legacy_vtk_text(points: np.ndarray, triangles: np.ndarray, *, title: str = "ADT surface") -> str:
-    """The compact legacy-VTK (version 3.0, ASCII, POLYDATA) text of a triangle mesh."""
+def legacy_vtk_text(
+    points: np.ndarray, triangles: np.ndarray, *, title: str = "ADT surface", digits: int | None = None
+) -> str:
+    """The compact legacy-VTK (version 3.0, ASCII, POLYDATA) text of a triangle mesh.
+
+    ``digits=None`` writes the shortest exact decimals; an integer writes that many
+    significant digits (``%g``), a lossy variant used to compare formats at equal precision.
+    """
     points = np.asarray(points, dtype=np.float64)
     triangles = np.asarray(triangles, dtype=np.int64)
     if points.ndim != 2 or points.shape[1] != 3:
@@ -64,7 +70,8 @@ def legacy_vtk_text(points: np.ndarray, triangles: np.ndarray, *, title: str = "
         f"# vtk DataFile Version 3.0\n{title}\nASCII\nDATASET POLYDATA\nPOINTS {points.shape[0]} double\n"
     )
     # column-wise formatting: about 3x faster than formatting point by point
-    columns = [[_strip_zero(v) for v in map(repr, points[:, k].tolist())] for k in range(3)]
+    number = repr if digits is None else f"{{:.{int(digits)}g}}".format
+    columns = [[_strip_zero(v) for v in map(number, points[:, k].tolist())] for k in range(3)]
     point_lines = "".join(map("{} {} {}\n".format, *columns))
     polygons = f"POLYGONS {triangles.shape[0]} {4 * triangles.shape[0]}\n"
     triangle_lines = "".join(map("3 {} {} {}\n".format, *triangles.T.tolist()))

@@ -296,6 +296,17 @@ class NurbsSurface:
     def depth_axis_name(self) -> str:
         return AXES[self.depth_axis]
 
+    def tessellation_mesh(self) -> tuple[np.ndarray, np.ndarray]:
+        """The tessellation as a triangle mesh: points (s_u * s_v, 3) and triangles."""
+        if self.tessellation is None:
+            raise InputError("this NURBS surface was built without a tessellation")
+        s_u, s_v = self.tessellation.shape[:2]
+        index = np.arange(s_u * s_v).reshape(s_u, s_v)
+        a, b = index[:-1, :-1].ravel(), index[1:, :-1].ravel()
+        c, d = index[1:, 1:].ravel(), index[:-1, 1:].ravel()
+        triangles = np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+        return self.tessellation.reshape(-1, 3), triangles
+
 
 def fit_nurbs(
     points: ArrayLike,

@@ -1,0 +1,1 @@
+"""Experiments: each returns results (dataclasses of DataFrames) and never writes result files."""
