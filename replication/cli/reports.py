@@ -1,0 +1,121 @@
+"""``replication table1``, ``replication report`` and ``replication reproduce``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+DEFAULT_DIR = "reports"
+QUICK_DIR = "reports-quick"
+
+
+def progress_bar(items: Iterable[Any], description: str, total: int) -> Iterable[Any]:
+    """A tqdm progress bar on stderr (plain lines when stderr is not a terminal)."""
+    from tqdm import tqdm
+
+    return tqdm(items, desc=description, total=total, file=sys.stderr, leave=False, dynamic_ncols=True)
+
+
+def _output_dir(args: argparse.Namespace) -> Path:
+    out = Path(args.output_dir or (QUICK_DIR if getattr(args, "quick", False) else DEFAULT_DIR))
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def _run_table1(out: Path, quick: bool, command: str) -> Path:
+    from replication.experiments.table1 import Table1Config, run_table1
+    from replication.report.table1 import render_table1, save_table1_data
+
+    config = Table1Config.quick_config() if quick else Table1Config()
+    results = run_table1(config, progress=progress_bar, command=command)
+    save_table1_data(results, out)
+    return render_table1(out)
+
+
+def _cmd_table1(args: argparse.Namespace) -> int:
+    from replication.report.index import render_index
+
+    out = _output_dir(args)
+    start = time.perf_counter()
+    path = _run_table1(out, args.quick, args.invocation)
+    render_index(out)
+    print(f"wrote {path} ({time.perf_counter() - start:.1f} s; data in {out / 'data'})")
+    return 0
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from replication.report.index import render_index
+    from replication.report.table1 import render_table1
+
+    out = Path(args.output_dir or DEFAULT_DIR)
+    written = []
+    if (out / "data" / "table1_provenance.json").is_file():
+        written.append(render_table1(out))
+    if not written:
+        from replication.errors import CloudFileError
+
+        raise CloudFileError(f"no report data under {out / 'data'}: run `replication reproduce` first")
+    written.append(render_index(out))
+    for path in written:
+        print(f"wrote {path}")
+    return 0
+
+
+STAGES = (
+    ("table1", "Table 1 and Fig. 6: file size, computation time and paired statistics, ADT vs NURBS"),
+    ("casestudy", "Figs. 8 and 9: the water-jet genetic algorithm [not yet available]"),
+)
+
+
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from replication.report.index import render_index
+
+    out = _output_dir(args)
+    kind = "quick (reduced) run" if args.quick else "full run"
+    print(f"replication reproduce: {kind} into {out}/")
+    start = time.perf_counter()
+    for name, what in STAGES:
+        if name == "table1":
+            t0 = time.perf_counter()
+            path = _run_table1(out, args.quick, args.invocation)
+            print(f"  [done] {name}: {what} -> {path} ({time.perf_counter() - t0:.1f} s)")
+        else:
+            print(f"  [skip] {name}: {what}")
+    index = render_index(out)
+    print(f"wrote {index}; total {time.perf_counter() - start:.1f} s")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the table1, report and reproduce subcommands."""
+    for name, func, helptext in (
+        ("reproduce", _cmd_reproduce, "regenerate every available report of the paper's results"),
+        ("table1", _cmd_table1, "reproduce Table 1 and Fig. 6 (ADT vs NURBS) into reports/table1.md"),
+    ):
+        p = sub.add_parser(
+            name,
+            help=helptext,
+            description=helptext[0].upper() + helptext[1:] + ". Long stages show a progress bar on stderr.",
+        )
+        p.add_argument(
+            "--quick",
+            action="store_true",
+            help=f"a reduced run (fewer repeats and seeds, under a minute) into {QUICK_DIR}/",
+        )
+        p.add_argument(
+            "--output-dir",
+            metavar="DIR",
+            help=f"where reports, figures and data go (default {DEFAULT_DIR}/, or {QUICK_DIR}/ with --quick)",
+        )
+        p.set_defaults(func=func)
+    p = sub.add_parser(
+        "report",
+        help="re-render the reports' markdown and figures from their saved data (no experiment is run)",
+        description="Re-render the markdown and figures of every report from the data in DIR/data.",
+    )
+    p.add_argument("--output-dir", metavar="DIR", help=f"the reports directory (default: {DEFAULT_DIR}/)")
+    p.set_defaults(func=_cmd_report)

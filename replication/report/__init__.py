@@ -1,0 +1,1 @@
+"""Reports: markdown, figures and CSV data made from experiment results (never computing science)."""

@@ -1,0 +1,98 @@
+"""Matplotlib figures (Agg canvas, no global backend change), written atomically as PNG and SVG."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from replication.experiments.claims import PAPER
+from replication.io.atomic import atomic_path
+
+__all__ = ["save_figure", "fig6"]
+
+
+def save_figure(
+    fig: Figure, stem: str | os.PathLike[str], formats: tuple[str, ...] = ("png", "svg")
+) -> list[Path]:
+    """Save ``fig`` as ``stem.png`` and ``stem.svg`` atomically (no timestamps in the files)."""
+    FigureCanvasAgg(fig)
+    paths = []
+    for ext in formats:
+        path = Path(f"{stem}.{ext}")
+        metadata = {"Date": None} if ext == "svg" else {"Software": None}
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format=ext, dpi=150, metadata=metadata, bbox_inches="tight")
+        paths.append(path)
+    return paths
+
+
+def _series(mc: pd.DataFrame, quantity: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    rows = mc[mc["quantity"] == quantity].sort_values("n")
+    n = rows["n"].to_numpy(float)
+    med = rows["median"].to_numpy(float)
+    err = np.vstack([med - rows["q1"].to_numpy(float), rows["q3"].to_numpy(float) - med])
+    return n, med, err
+
+
+def fig6(montecarlo: pd.DataFrame, stem: str | os.PathLike[str]) -> list[Path]:
+    """Fig. 6: storage and computation time against n, with the paper's 9-point values.
+
+    Markers are Monte Carlo medians over the seeds, error bars the inter-quartile range.
+    """
+    fig = Figure(figsize=(10, 4.2))
+    ax1, ax2 = fig.subplots(1, 2)
+    for quantity, label, color in (
+        ("adt_bytes", "ADT (.vtk)", "C0"),
+        ("nurbs_bytes", "NURBS (.smesh)", "C1"),
+    ):
+        n, med, err = _series(montecarlo, quantity)
+        ax1.errorbar(n, med, yerr=err, marker="o", capsize=3, color=color, label=f"{label}, ours")
+    ax1.plot([9], [PAPER["adt_bytes_9"]], "s", mfc="none", color="C0", ms=9, label="ADT, paper (9 points)")
+    ax1.plot(
+        [9], [PAPER["nurbs_bytes_9"]], "s", mfc="none", color="C1", ms=9, label="NURBS, paper (9 points)"
+    )
+    ax1.set_xlabel("number of points n")
+    ax1.set_ylabel("file size [bytes]")
+    ax1.set_title("(a) storage")
+    ax1.legend(fontsize=8)
+    for quantity, label, color in (
+        ("adt_s", "ADT", "C0"),
+        ("nurbs_geomdl_s", "NURBS (geomdl)", "C1"),
+        ("nurbs_fast_s", "NURBS (fast evaluator)", "C2"),
+    ):
+        n, med, err = _series(montecarlo, quantity)
+        ax2.errorbar(n, med, yerr=err, marker="o", capsize=3, color=color, label=f"{label}, ours")
+    ax2.plot([9], [PAPER["adt_s_9"]], "s", mfc="none", color="C0", ms=9, label="ADT, paper (9 points)")
+    ax2.plot([9], [PAPER["nurbs_s_9"]], "s", mfc="none", color="C1", ms=9, label="NURBS, paper (9 points)")
+    ax2.set_yscale("log")
+    ax2.set_xlabel("number of points n")
+    ax2.set_ylabel("computation time [s]")
+    ax2.set_title("(b) computation time")
+    ax2.legend(fontsize=8)
+    fig.suptitle("Fig. 6 reproduced: medians over random clouds, bars = inter-quartile range")
+    fig.tight_layout()
+    return save_figure(fig, stem)
+
+
+def scale_figure(scale: pd.DataFrame, stem: str | os.PathLike[str]) -> list[Path]:
+    """Build time against n on log-log axes for every method of the scale sweep."""
+    fig = Figure(figsize=(6, 4.2))
+    ax = fig.subplots()
+    for i, (method, rows) in enumerate(scale.groupby("method", sort=True)):
+        rows = rows.sort_values("n")
+        med = rows["median"].to_numpy(float)
+        err = np.vstack([med - rows["q1"].to_numpy(float), rows["q3"].to_numpy(float) - med])
+        ax.errorbar(rows["n"], med, yerr=err, marker="o", capsize=3, color=f"C{i}", label=method)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("number of points n")
+    ax.set_ylabel("build time [s]")
+    ax.set_title("Scale sweep (continuous clouds)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return save_figure(fig, stem)

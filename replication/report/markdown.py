@@ -1,0 +1,75 @@
+"""Markdown building blocks: number formats, tables and the provenance section."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import pandas as pd
+
+__all__ = ["fmt", "table", "provenance_section", "iqr"]
+
+
+def fmt(value: Any, spec: str = ".3g") -> str:
+    """Format a number; missing values become an en dash."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "–"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if spec == "int":
+        return f"{int(round(float(value))):,}"
+    if spec == "pct":
+        return f"{100 * float(value):.0f} %"
+    return format(float(value), spec)
+
+
+def iqr(median: Any, q1: Any, q3: Any, spec: str = ".3g") -> str:
+    """``median [q1, q3]``."""
+    return f"{fmt(median, spec)} [{fmt(q1, spec)}, {fmt(q3, spec)}]"
+
+
+def table(rows: Sequence[Sequence[str]], header: Sequence[str], align: str | None = None) -> str:
+    """A pipe table; ``align`` is one character per column (l, r, c)."""
+    align = align or "l" + "r" * (len(header) - 1)
+    marks = {"l": ":---", "r": "---:", "c": ":---:"}
+    lines = [
+        "| " + " | ".join(header) + " |",
+        "| " + " | ".join(marks[a] for a in align) + " |",
+    ]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def frame_table(frame: pd.DataFrame, columns: dict[str, tuple[str, Callable[[Any], str]]]) -> str:
+    """Render selected columns of a DataFrame: {column: (header, formatter)}."""
+    rows = [[f(r[c]) for c, (_, f) in columns.items()] for _, r in frame.iterrows()]
+    return table(rows, [h for h, _ in columns.values()])
+
+
+def provenance_section(record: dict[str, Any]) -> str:
+    """How the report was made: command, commit, versions, machine, date, seeds, run time."""
+    versions = ", ".join(f"{k} {v}" for k, v in record.get("versions", {}).items() if v)
+    commit = record.get("commit") or "unknown (not a git checkout)"
+    if record.get("dirty"):
+        commit += " (with uncommitted changes)"
+    lines = [
+        "## How this report was made",
+        "",
+        f"- Command: `{record.get('command', '?')}`",
+        f"- Code: git commit `{commit}`",
+        f"- Date (UTC): {record.get('date_utc', '?')}",
+        f"- Machine: {record.get('cpu', '?')}, {record.get('cores', '?')} cores; "
+        f"{record.get('platform', '?')}",
+        f"- Software: Python {record.get('python', '?')}; {versions}",
+        f"- Seeds: {record.get('seeds', '?')}",
+        f"- Run time: {fmt(record.get('run_seconds'), '.1f')} s"
+        + (
+            " ("
+            + ", ".join(f"{k.replace('_', ' ')} {v:.1f} s" for k, v in record["stage_seconds"].items())
+            + ")"
+            if record.get("stage_seconds")
+            else ""
+        ),
+    ]
+    return "\n".join(lines)

@@ -1,0 +1,81 @@
+"""Off-screen renders of surfaces (pyvista with EGL; matplotlib 3-D as the fallback).
+
+pyvista renders off-screen with the PyPI vtk wheel through EGL (software Mesa) when
+``VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow`` is set before the first render window is
+made; this module sets it unless the user chose otherwise. If rendering fails, the same
+views are drawn with matplotlib's 3-D axes and :func:`render_views` says so.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from replication.io.atomic import atomic_path
+from replication.report.figures import save_figure
+
+__all__ = ["render_views"]
+
+Mesh = tuple[np.ndarray, np.ndarray]
+COLORS = {"ADT": "#d9a441", "NURBS": "#5b8fd9"}
+
+
+def _pyvista_views(views: dict[Path, Sequence[tuple[str, Mesh]]], size: tuple[int, int]) -> None:
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    import pyvista as pv
+
+    from replication.surfaces.adt import triangle_polydata
+
+    for path, meshes in views.items():
+        plotter = pv.Plotter(off_screen=True, window_size=size)
+        try:
+            plotter.set_background("white")
+            for label, (points, triangles) in meshes:
+                opacity = 0.75 if len(meshes) > 1 and label == "NURBS" else 1.0
+                plotter.add_mesh(
+                    triangle_polydata(points, triangles),
+                    color=COLORS[label],
+                    show_edges=label == "ADT",
+                    edge_color="#6b4d12",
+                    opacity=opacity,
+                    smooth_shading=label == "NURBS",
+                )
+            plotter.view_vector((1.0, -1.4, 1.1), viewup=(0, 0, 1))
+            plotter.camera.zoom(1.25)
+            with atomic_path(path) as tmp:
+                plotter.screenshot(str(tmp))
+        finally:
+            plotter.close()
+
+
+def _matplotlib_views(views: dict[Path, Sequence[tuple[str, Mesh]]], size: tuple[int, int]) -> None:
+    for path, meshes in views.items():
+        fig = Figure(figsize=(size[0] / 100, size[1] / 100))
+        ax = fig.add_subplot(projection="3d")
+        for label, (points, triangles) in meshes:
+            ax.plot_trisurf(
+                points[:, 0], points[:, 1], points[:, 2], triangles=triangles, color=COLORS[label],
+                alpha=0.75 if len(meshes) > 1 else 1.0, edgecolor="#6b4d12" if label == "ADT" else "none",
+                linewidth=0.3,
+            )  # fmt: skip
+        ax.view_init(elev=35, azim=-55)
+        ax.set_axis_off()
+        save_figure(fig, path.with_suffix(""), formats=("png",))
+
+
+def render_views(views: dict[Path, Sequence[tuple[str, Mesh]]], *, size: tuple[int, int] = (420, 320)) -> str:
+    """Render each view (a list of labelled meshes) to its PNG path; return the renderer used.
+
+    Returns ``"pyvista (VTK, off-screen EGL)"`` or, when VTK cannot render off-screen,
+    ``"matplotlib 3-D (fallback: <reason>)"``.
+    """
+    try:
+        _pyvista_views(views, size)
+        return "pyvista (VTK, off-screen EGL)"
+    except Exception as exc:  # any VTK/EGL failure: fall back, and say why
+        _matplotlib_views(views, size)
+        return f"matplotlib 3-D (fallback: pyvista could not render off-screen: {type(exc).__name__}: {exc})"

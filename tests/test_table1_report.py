@@ -1,0 +1,160 @@
+"""The quick Table 1 run end to end: report structure, and its numbers equal the CSV data."""
+
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from replication.cli import main
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def quick_reports(tmp_path_factory):
+    out = tmp_path_factory.mktemp("reports")
+    assert main(["reproduce", "--quick", "--output-dir", str(out)]) == 0
+    return out
+
+
+def _tables(markdown: str) -> dict[str, pd.DataFrame]:
+    """Every pipe table in the markdown, keyed by its header line."""
+    tables, lines = {}, markdown.splitlines()
+    i = 0
+    while i < len(lines):
+        if lines[i].startswith("| ") and i + 1 < len(lines) and set(lines[i + 1]) <= set("|:- "):
+            header = [c.strip() for c in lines[i].strip("|").split("|")]
+            rows = []
+            i += 2
+            while i < len(lines) and lines[i].startswith("|"):
+                rows.append([c.strip() for c in lines[i].strip().strip("|").split("|")])
+                i += 1
+            tables[" | ".join(header)] = pd.DataFrame(rows, columns=header)
+        else:
+            i += 1
+    return tables
+
+
+def _find(tables, *words):
+    matches = [t for key, t in tables.items() if all(w in key for w in words)]
+    assert len(matches) == 1, (words, list(tables))
+    return matches[0]
+
+
+def _number(text: str) -> float:
+    text = text.replace(",", "").replace("%", "").replace("bytes", "").replace(" s", "").strip()
+    return float("nan") if text in ("–", "") else float(text)
+
+
+def _triple(text: str) -> tuple[float, float, float]:
+    m = re.fullmatch(r"(\S+) \[(\S+), (\S+)\].*", text.strip())
+    assert m, text
+    return tuple(_number(g) for g in m.groups())
+
+
+def _close(shown: float, exact: float) -> bool:
+    """A number shown with 3 significant digits (or as an integer) matches the data."""
+    if np.isnan(shown) or np.isnan(exact):
+        return np.isnan(shown) and np.isnan(exact)
+    return abs(shown - exact) <= max(5e-3 * abs(exact), 0.5 if abs(exact) >= 100 else 1e-12)
+
+
+def test_files_exist(quick_reports):
+    names = ("index.md", "table1.md", "figures/table1_fig6.png", "figures/table1_fig6.svg",
+             "figures/table1_scale.png", "figures/table1_n9_overlay.png", "data/table1_provenance.json",
+             "data/table1_claims.csv", "data/table1_montecarlo_raw.csv",
+             "data/table1_meshes/n200_adt.vtk")  # fmt: skip
+    for name in names:
+        assert (quick_reports / name).is_file(), name
+
+
+def test_report_structure_and_provenance(quick_reports):
+    text = (quick_reports / "table1.md").read_text()
+    for heading in ("## Does the paper's conclusion survive?", "## Set-up", "## Table 1: one cloud per n",
+                    "## The paper's numbers beside ours", "## Fig. 6", "## Monte Carlo", "## Scale sweep",
+                    "## How this report was made"):  # fmt: skip
+        assert heading in text, heading
+    assert "Quick run" in text
+    items = ("- Command: `replication reproduce --quick", "- Code: git commit", "- Machine:", "- Software:",
+             "- Seeds:", "- Run time:", "- Date (UTC):")  # fmt: skip
+    for item in items:
+        assert item in text, item
+    for image in re.findall(r"\]\((figures/[^)]+)\)", text):
+        assert (quick_reports / image).is_file(), image
+    assert "[Table 1 and Fig. 6](table1.md)" in (quick_reports / "index.md").read_text()
+
+
+def test_sizes_table_equals_csv(quick_reports):
+    tables = _tables((quick_reports / "table1.md").read_text())
+    shown = _find(tables, "ADT file [bytes]", "merged points")
+    sizes = pd.read_csv(quick_reports / "data/table1_sizes.csv")
+    clouds = pd.read_csv(quick_reports / "data/table1_clouds.csv")
+    for _, row in shown.iterrows():
+        n = int(row["n"])
+        head = sizes[(sizes["n"] == n) & sizes["headline"]].set_index("method")["bytes"]
+        assert _number(row["ADT file [bytes]"]) == head["ADT"]
+        assert _number(row["NURBS file [bytes]"]) == head["NURBS"]
+        assert _close(_number(row["ADT / NURBS"]), head["ADT"] / head["NURBS"])
+        c = clouds[clouds["n"] == n].iloc[0]
+        assert _number(row["vertices"]) == c["vertices"] and _number(row["triangles"]) == c["triangles"]
+
+
+def test_timing_table_equals_csv(quick_reports):
+    tables = _tables((quick_reports / "table1.md").read_text())
+    shown = _find(tables, "NURBS geomdl / ADT", "ADT + write [ms]")
+    timings = pd.read_csv(quick_reports / "data/table1_timings.csv")
+    for _, row in shown.iterrows():
+        n = int(row["n"])
+        checks = (("ADT [ms]", "adt [s]", 1e3), ("NURBS geomdl [ms]", "nurbs_geomdl [s]", 1e3),
+                  ("NURBS geomdl / ADT", "nurbs_geomdl/adt", 1.0))  # fmt: skip
+        for column, quantity, scale in checks:
+            data = timings[(timings["n"] == n) & (timings["quantity"] == quantity)].iloc[0]
+            for got, want in zip(_triple(row[column]), (data["median"], data["q1"], data["q3"])):
+                assert _close(got, scale * want), (n, column)
+
+
+def test_stats_table_equals_csv(quick_reports):
+    tables = _tables((quick_reports / "table1.md").read_text())
+    shown = _find(tables, "t-test p", "TOST p")
+    stats = pd.read_csv(quick_reports / "data/table1_stats.csv")
+    assert len(shown) == len(stats)
+    for (_, row), (_, data) in zip(shown.iterrows(), stats.iterrows()):
+        assert int(row["n"]) == data["n"] and row["pairing"] == data["pairing"]
+        assert _number(row["pairs"]) == data["pairs"]
+        for column, key in (("t-test p", "t_p"), ("Wilcoxon p", "wilcoxon_p"), ("TOST p", "tost_p"),
+                            ("RMS [% of depth range]", "rms_pct")):  # fmt: skip
+            assert _close(_number(row[column]), data.get(key, np.nan)), (row["n"], column)
+
+
+def test_claims_table_equals_csv(quick_reports):
+    tables = _tables((quick_reports / "table1.md").read_text())
+    shown = _find(tables, "claim", "verdict", "ours / paper")
+    claims = pd.read_csv(quick_reports / "data/table1_claims.csv")
+    assert len(shown) == len(claims)
+    for (_, row), (_, data) in zip(shown.iterrows(), claims.iterrows()):
+        assert row["claim"] == data["claim"]
+        assert row["verdict"].strip("*") == data["verdict"]
+        assert _close(_number(row["ours / paper"]), data["ratio_ours_to_paper"])
+        ours = row["ours (median [IQR])"]
+        got = _triple(ours)[0] if "[" in ours else _number(ours.split()[0])
+        assert _close(got, data["ours"]), data["claim"]
+
+
+def test_report_rerenders_from_data_alone(quick_reports, monkeypatch, capsys):
+    import replication.experiments.table1 as experiment
+
+    before = (quick_reports / "table1.md").read_text()
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("re-rendering must not run the experiment")
+
+    monkeypatch.setattr(experiment, "run_table1", forbidden)
+    assert main(["report", "--output-dir", str(quick_reports)]) == 0
+    assert (quick_reports / "table1.md").read_text() == before
+    assert "table1.md" in capsys.readouterr().out
+
+
+def test_report_without_data_is_a_clear_error(tmp_path, capsys):
+    assert main(["report", "--output-dir", str(tmp_path)]) == 1
+    assert "no report data" in capsys.readouterr().err
