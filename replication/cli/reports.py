@@ -53,6 +53,10 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
     out = Path(args.output_dir or DEFAULT_DIR)
     written = []
+    if args.performance:
+        from replication.report.performance import render_performance
+
+        written.append(render_performance(args.asv_results, out, commits=args.commits))
     if (out / "data" / "table1_provenance.json").is_file():
         written.append(render_table1(out))
     if not written:
@@ -118,4 +122,18 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Re-render the markdown and figures of every report from the data in DIR/data.",
     )
     p.add_argument("--output-dir", metavar="DIR", help=f"the reports directory (default: {DEFAULT_DIR}/)")
+    p.add_argument(
+        "--performance",
+        action="store_true",
+        help="also write performance.md from the asv results (run `asv run` first; see the README)",
+    )
+    p.add_argument(
+        "--asv-results",
+        metavar="DIR",
+        default=".asv/results",
+        help="asv's results directory (default: .asv/results)",
+    )
+    p.add_argument(
+        "--commits", type=int, default=5, help="how many recent commits performance.md shows (default 5)"
+    )
     p.set_defaults(func=_cmd_report)

@@ -1,0 +1,75 @@
+"""The asv suite imports, runs a quick subset, and its results render as performance.md."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from replication.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+pytestmark = pytest.mark.slow
+
+
+def _asv(*args, home, config=None, timeout=600):
+    env = dict(os.environ, HOME=str(home))  # asv keeps its machine file in $HOME
+    cmd = [sys.executable, "-m", "asv", *args]
+    if config:
+        cmd += ["--config", str(config)]
+    return subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout)
+
+
+@pytest.fixture(scope="module")
+def asv_results(tmp_path_factory):
+    if shutil.which("git") is None or not (ROOT / ".git").exists():
+        pytest.skip("asv needs the git checkout of the project")
+    tmp = tmp_path_factory.mktemp("asv")
+    conf = json.loads((ROOT / "asv.conf.json").read_text())
+    conf.update(results_dir=str(tmp / "results"), html_dir=str(tmp / "html"), env_dir=str(tmp / "env"))
+    config = tmp / "asv.conf.json"
+    config.write_text(json.dumps(conf))
+    # benchmark_dir and repo are relative to the config file: point them at the project
+    conf.update(repo=str(ROOT), benchmark_dir=str(ROOT / "benchmarks"))
+    config.write_text(json.dumps(conf))
+    head = subprocess.run(
+        ["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=True
+    ).stdout
+    machine = _asv("machine", "--yes", "--machine", "pytest-machine", home=tmp, config=config)
+    assert machine.returncode == 0, machine.stderr
+    run = _asv(
+        "run", "--python=same", "--quick", "--machine", "pytest-machine", "--set-commit-hash", head.strip(),
+        "--bench", r"ADTPaperSizes\.(time_adt|track_adt_vtk_bytes)\b", "--show-stderr",
+        home=tmp, config=config,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stdout + run.stderr
+    return tmp / "results", run.stdout
+
+
+def test_asv_check_passes(tmp_path):
+    result = _asv("check", "--python=same", home=tmp_path)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "No problems found" in result.stdout
+
+
+def test_quick_asv_run_records_results(asv_results):
+    results, stdout = asv_results
+    assert "time_adt" in stdout and "failed" not in stdout.lower()
+    assert (results / "benchmarks.json").is_file()
+    assert list((results / "pytest-machine").glob("*.json"))
+
+
+def test_performance_report_from_asv_results(asv_results, tmp_path, capsys):
+    results, _ = asv_results
+    code = main(["report", "--performance", "--asv-results", str(results), "--output-dir", str(tmp_path)])
+    assert code == 0
+    assert not (tmp_path / "table1.md").exists()  # no Table 1 data there: only performance + index
+    assert "[Performance history](performance.md)" in (tmp_path / "index.md").read_text()
+    text = (tmp_path / "performance.md").read_text()
+    assert "## Machine `pytest-machine`" in text
+    assert "### `benchmark_adt.ADTPaperSizes.time_adt`" in text
+    assert "n=200, backend=sweephull" in text
+    assert "### `benchmark_adt.ADTPaperSizes.track_adt_vtk_bytes`" in text and " B |" in text
