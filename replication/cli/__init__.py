@@ -20,7 +20,7 @@ __all__ = ["build_parser", "main"]
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand registered."""
-    from replication.cli import reports, surfaces
+    from replication.cli import force, reports, surfaces
 
     parser = argparse.ArgumentParser(
         prog="replication",
@@ -32,6 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     surfaces.register(sub)
+    force.register(sub)
     reports.register(sub)
     return parser
 

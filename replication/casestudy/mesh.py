@@ -1,0 +1,106 @@
+"""Validation of user meshes for the jet model: domain, welding, height-field checks.
+
+A triangle mesh given to :func:`replication.casestudy.jet.jet_force` must be a height field
+z(x, y) inside the case study's domain (paper section 6); these checks turn any other mesh
+into an :class:`~replication.errors.InputError` naming the offending vertex or triangle.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from replication.casestudy import _sheet
+from replication.errors import InputError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from replication.casestudy.jet import JetConfig
+
+__all__ = ["MM", "check_domain", "check_height_field", "weld"]
+
+MM = 1e-3  # metres per millimetre
+
+
+def check_domain(points: np.ndarray, config: JetConfig, used: np.ndarray | None = None) -> None:
+    """Raise when the surface (metres; the vertices ``used``) leaves the domain or crosses y = 0."""
+    index = np.arange(points.shape[0]) if used is None else used
+    points = points[index]
+    span = float(np.ptp(points, axis=0).max()) or 1.0
+    tol = 1e-9 * span
+    if not config.full_jet and points[:, 1].min() < -tol:
+        i = int(points[:, 1].argmin())
+        raise InputError(
+            f"the half jet needs the surface on the side y >= 0 of its symmetry plane, but vertex "
+            f"{index[i]} has y = {points[i, 1] / MM:.6g} mm; use the full jet for a surface on both sides"
+        )
+    if config.domain is None:
+        return
+    length, width, depth = config.domain
+    lower = np.array([0.0, -width if config.full_jet else 0.0, 0.0]) - tol
+    upper = np.array([length, width, depth]) + tol
+    outside = np.flatnonzero(((points < lower) | (points > upper)).any(axis=1))
+    if outside.size:
+        i = int(outside[0])
+        x, y, z = points[i] / MM
+        y_lo = -width / MM if config.full_jet else 0.0
+        raise InputError(
+            f"surface vertex {index[i]} at ({x:.6g}, {y:.6g}, {z:.6g}) mm lies outside the domain "
+            f"x 0..{length / MM:g}, y {y_lo:g}..{width / MM:g}, z 0..{depth / MM:g} mm "
+            f"({outside.size} vertices outside); enlarge the domain or set it to None"
+        )
+
+
+def weld(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Merge vertices with equal coordinates; refuse two heights over one (x, y) position."""
+    used = np.unique(triangles)
+    xy, first, inverse = np.unique(points[used, :2], axis=0, return_index=True, return_inverse=True)
+    if xy.shape[0] == used.size:
+        return points, triangles
+    z_first = points[used[first], 2]
+    differs = np.flatnonzero(points[used, 2] != z_first[inverse.ravel()])
+    if differs.size:
+        i = int(used[differs[0]])
+        j = int(used[first[inverse.ravel()[differs[0]]]])
+        x, y = points[i, :2] / MM
+        raise InputError(
+            f"vertices {j} and {i} share the position (x, y) = ({x:.6g}, {y:.6g}) mm at different heights: "
+            "the surface is not a height field z(x, y)"
+        )
+    remap = np.empty(points.shape[0], dtype=np.int64)
+    remap[used] = used[first[inverse.ravel()]]
+    return points, remap[triangles]
+
+
+def check_height_field(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, bool]:
+    """Validate a triangle mesh as a height field over x-y; return CCW triangles and convexity."""
+    x = np.ascontiguousarray(points[:, 0])
+    y = np.ascontiguousarray(points[:, 1])
+    signs = _sheet.orientations(x, y, triangles)
+    if np.all(signs < 0):  # consistently oriented downwards: the same height field
+        triangles = np.ascontiguousarray(triangles[:, ::-1])
+        signs = -signs
+    bad = np.flatnonzero(signs <= 0)
+    if bad.size:
+        t = int(bad[0])
+        what = "has zero area (a vertical facet)" if signs[t] == 0 else "is clockwise while others are not"
+        raise InputError(
+            f"triangle {t} (vertices {triangles[t].tolist()}) {what} in the x-y projection; {bad.size} such "
+            "triangle(s): the jet model needs a height field z(x, y) with counter-clockwise triangles"
+        )
+    i, j, kind = _sheet.first_overlap(x, y, triangles)
+    if kind == 1:
+        raise InputError(
+            f"triangles {i} and {j} overlap in the x-y projection: the surface is not a height field"
+        )
+    if kind == 2:
+        raise InputError(
+            f"a vertex of triangle {j} lies inside an edge of triangle {i} (or the reverse): "
+            "the mesh is not conforming; split the edge so neighbouring triangles share it"
+        )
+    from scipy.spatial import ConvexHull
+
+    a, b, c = (points[triangles[:, k], :2] for k in range(3))
+    area = 0.5 * np.sum((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    hull = ConvexHull(points[np.unique(triangles), :2]).volume
+    return triangles, bool(area >= hull * (1 - 1e-9))

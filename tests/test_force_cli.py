@@ -1,0 +1,106 @@
+"""``replication force``: the subcommand handler, with a parser built as the main CLI does."""
+
+import argparse
+import json
+
+import numpy as np
+import pytest
+
+from replication.casestudy import JetConfig, pelton_bucket_cloud, pelton_bucket_surface, surface_force
+from replication.cli.force import register
+from replication.errors import CloudFileError, InputError
+from replication.io import save_cloud, write_surface
+
+
+def run(capsys, *argv):
+    parser = argparse.ArgumentParser(prog="replication")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    register(sub)
+    args = parser.parse_args(list(argv))
+    code = args.func(args)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def bucket_csv(tmp_path):
+    path = tmp_path / "bucket.csv"
+    save_cloud(pelton_bucket_cloud(), path)
+    return path
+
+
+def test_cloud_human_output(capsys, bucket_csv):
+    code, out, _ = run(capsys, "force", str(bucket_csv))
+    assert code == 0
+    expected = surface_force(pelton_bucket_surface()).axial_force
+    assert "101 points -> ADT surface" in out and "half jet" in out
+    assert f"axial force {expected:.4g} N" in out and len(out.splitlines()) == 4
+
+
+def test_surface_file_json_matches_the_library(capsys, tmp_path):
+    path = tmp_path / "bucket.vtp"
+    write_surface(pelton_bucket_surface(), path, "vtp")
+    code, out, _ = run(capsys, "force", str(path), "--json")
+    assert code == 0
+    report = json.loads(out)
+    expected = surface_force(pelton_bucket_surface())
+    np.testing.assert_allclose(report["force_N"], expected.force, rtol=1e-12, atol=1e-15)
+    assert report["axial_force_N"] == pytest.approx(expected.axial_force, rel=1e-12)
+    assert report["mass_flow_hit_kg_s"] == pytest.approx(expected.mass_flow_hit)
+    assert report["mass_flow_total_kg_s"] == pytest.approx(JetConfig().mass_flow)
+    assert report["evaluation_seconds"] > 0
+    assert report["jet"]["center_mm"] == [18.0, 0.0] and report["jet"]["diameter_mm"] == 18.0
+
+
+def test_full_jet_options(capsys, tmp_path):
+    cloud = pelton_bucket_cloud()
+    both = np.vstack([cloud, cloud[cloud[:, 1] > 0] * [1, -1, 1]])
+    path = tmp_path / "both.npy"
+    save_cloud(both, path)
+    code, out, _ = run(
+        capsys, "force", str(path), "--full-jet", "--center", "18", "0", "--resolution", "4", "--json"
+    )
+    report = json.loads(out)
+    assert code == 0 and report["jet"]["full_jet"] and report["resolution"] == 4
+    assert report["mass_flow_total_kg_s"] == pytest.approx(JetConfig(full_jet=True).mass_flow)
+    code, out, _ = run(
+        capsys, "force", str(path), "--full-jet", "--diameter", "6", "--velocity", "2", "--json"
+    )
+    report = json.loads(out)
+    assert report["momentum_flux_N"] == pytest.approx(1000 * np.pi * 0.003**2 * 4)
+
+
+def test_domain_options(capsys, tmp_path):
+    path = tmp_path / "big.csv"
+    save_cloud(pelton_bucket_cloud() * [2, 1, 1], path)
+    with pytest.raises(InputError, match="outside the domain"):
+        run(capsys, "force", str(path))
+    assert run(capsys, "force", str(path), "--no-domain")[0] == 0
+    assert run(capsys, "force", str(path), "--domain", "72", "30", "13")[0] == 0
+    with pytest.raises(InputError, match="not both"):
+        run(capsys, "force", str(path), "--domain", "72", "30", "13", "--no-domain")
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["--center", "18", "5"], "--full-jet"),
+        (["--diameter", "0"], "diameter"),
+        (["--velocity", "-4"], "velocity"),
+        (["--domain", "36", "0", "13"], "domain"),
+    ],
+)
+def test_bad_options(capsys, bucket_csv, argv, match):
+    with pytest.raises(InputError, match=match):
+        run(capsys, "force", str(bucket_csv), *argv)
+
+
+def test_unreadable_inputs(capsys, tmp_path):
+    with pytest.raises(CloudFileError, match="not found"):
+        run(capsys, "force", str(tmp_path / "missing.csv"))
+    (tmp_path / "mesh.stl").write_text("solid")
+    with pytest.raises(CloudFileError, match=r"\.vtp"):
+        run(capsys, "force", str(tmp_path / "mesh.stl"))
+    (tmp_path / "broken.vtk").write_text("not a vtk file")
+    with pytest.raises(CloudFileError):
+        run(capsys, "force", str(tmp_path / "broken.vtk"))
