@@ -18,3 +18,24 @@ settings.register_profile(
 )
 settings.register_profile("dev", max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile("ci" if os.environ.get("CI") else os.environ.get("HYPOTHESIS_PROFILE", "dev"))
+
+
+import pytest  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def quick_reports(tmp_path_factory):
+    """``replication reproduce --quick`` once per session, run from a scratch directory."""
+    import os
+
+    from replication.cli import main
+
+    work = tmp_path_factory.mktemp("reproduce")
+    out = work / "reports"
+    previous = os.getcwd()
+    os.chdir(work)  # the GA's checkpoints go to ./casestudy-runs
+    try:
+        assert main(["reproduce", "--quick", "--output-dir", str(out)]) == 0
+    finally:
+        os.chdir(previous)
+    return out

@@ -6,58 +6,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from mdtables import close, find, number, parse_tables, triple
 from replication.cli import main
 
 pytestmark = pytest.mark.slow
-
-
-@pytest.fixture(scope="module")
-def quick_reports(tmp_path_factory):
-    out = tmp_path_factory.mktemp("reports")
-    assert main(["reproduce", "--quick", "--output-dir", str(out)]) == 0
-    return out
-
-
-def _tables(markdown: str) -> dict[str, pd.DataFrame]:
-    """Every pipe table in the markdown, keyed by its header line."""
-    tables, lines = {}, markdown.splitlines()
-    i = 0
-    while i < len(lines):
-        if lines[i].startswith("| ") and i + 1 < len(lines) and set(lines[i + 1]) <= set("|:- "):
-            header = [c.strip() for c in lines[i].strip("|").split("|")]
-            rows = []
-            i += 2
-            while i < len(lines) and lines[i].startswith("|"):
-                rows.append([c.strip() for c in lines[i].strip().strip("|").split("|")])
-                i += 1
-            tables[" | ".join(header)] = pd.DataFrame(rows, columns=header)
-        else:
-            i += 1
-    return tables
-
-
-def _find(tables, *words):
-    matches = [t for key, t in tables.items() if all(w in key for w in words)]
-    assert len(matches) == 1, (words, list(tables))
-    return matches[0]
-
-
-def _number(text: str) -> float:
-    text = text.replace(",", "").replace("%", "").replace("bytes", "").replace(" s", "").strip()
-    return float("nan") if text in ("–", "") else float(text)
-
-
-def _triple(text: str) -> tuple[float, float, float]:
-    m = re.fullmatch(r"(\S+) \[(\S+), (\S+)\].*", text.strip())
-    assert m, text
-    return tuple(_number(g) for g in m.groups())
-
-
-def _close(shown: float, exact: float) -> bool:
-    """A number shown with 3 significant digits (or as an integer) matches the data."""
-    if np.isnan(shown) or np.isnan(exact):
-        return np.isnan(shown) and np.isnan(exact)
-    return abs(shown - exact) <= max(5e-3 * abs(exact), 0.5 if abs(exact) >= 100 else 1e-12)
 
 
 def test_files_exist(quick_reports):
@@ -86,23 +38,23 @@ def test_report_structure_and_provenance(quick_reports):
 
 
 def test_sizes_table_equals_csv(quick_reports):
-    tables = _tables((quick_reports / "table1.md").read_text())
-    shown = _find(tables, "ADT file [bytes]", "merged points")
+    tables = parse_tables((quick_reports / "table1.md").read_text())
+    shown = find(tables, "ADT file [bytes]", "merged points")
     sizes = pd.read_csv(quick_reports / "data/table1_sizes.csv")
     clouds = pd.read_csv(quick_reports / "data/table1_clouds.csv")
     for _, row in shown.iterrows():
         n = int(row["n"])
         head = sizes[(sizes["n"] == n) & sizes["headline"]].set_index("method")["bytes"]
-        assert _number(row["ADT file [bytes]"]) == head["ADT"]
-        assert _number(row["NURBS file [bytes]"]) == head["NURBS"]
-        assert _close(_number(row["ADT / NURBS"]), head["ADT"] / head["NURBS"])
+        assert number(row["ADT file [bytes]"]) == head["ADT"]
+        assert number(row["NURBS file [bytes]"]) == head["NURBS"]
+        assert close(number(row["ADT / NURBS"]), head["ADT"] / head["NURBS"])
         c = clouds[clouds["n"] == n].iloc[0]
-        assert _number(row["vertices"]) == c["vertices"] and _number(row["triangles"]) == c["triangles"]
+        assert number(row["vertices"]) == c["vertices"] and number(row["triangles"]) == c["triangles"]
 
 
 def test_timing_table_equals_csv(quick_reports):
-    tables = _tables((quick_reports / "table1.md").read_text())
-    shown = _find(tables, "NURBS geomdl / ADT", "ADT + write [ms]")
+    tables = parse_tables((quick_reports / "table1.md").read_text())
+    shown = find(tables, "NURBS geomdl / ADT", "ADT + write [ms]")
     timings = pd.read_csv(quick_reports / "data/table1_timings.csv")
     for _, row in shown.iterrows():
         n = int(row["n"])
@@ -110,35 +62,35 @@ def test_timing_table_equals_csv(quick_reports):
                   ("NURBS geomdl / ADT", "nurbs_geomdl/adt", 1.0))  # fmt: skip
         for column, quantity, scale in checks:
             data = timings[(timings["n"] == n) & (timings["quantity"] == quantity)].iloc[0]
-            for got, want in zip(_triple(row[column]), (data["median"], data["q1"], data["q3"])):
-                assert _close(got, scale * want), (n, column)
+            for got, want in zip(triple(row[column]), (data["median"], data["q1"], data["q3"])):
+                assert close(got, scale * want), (n, column)
 
 
 def test_stats_table_equals_csv(quick_reports):
-    tables = _tables((quick_reports / "table1.md").read_text())
-    shown = _find(tables, "t-test p", "TOST p")
+    tables = parse_tables((quick_reports / "table1.md").read_text())
+    shown = find(tables, "t-test p", "TOST p")
     stats = pd.read_csv(quick_reports / "data/table1_stats.csv")
     assert len(shown) == len(stats)
     for (_, row), (_, data) in zip(shown.iterrows(), stats.iterrows()):
         assert int(row["n"]) == data["n"] and row["pairing"] == data["pairing"]
-        assert _number(row["pairs"]) == data["pairs"]
+        assert number(row["pairs"]) == data["pairs"]
         for column, key in (("t-test p", "t_p"), ("Wilcoxon p", "wilcoxon_p"), ("TOST p", "tost_p"),
                             ("RMS [% of depth range]", "rms_pct")):  # fmt: skip
-            assert _close(_number(row[column]), data.get(key, np.nan)), (row["n"], column)
+            assert close(number(row[column]), data.get(key, np.nan)), (row["n"], column)
 
 
 def test_claims_table_equals_csv(quick_reports):
-    tables = _tables((quick_reports / "table1.md").read_text())
-    shown = _find(tables, "claim", "verdict", "ours / paper")
+    tables = parse_tables((quick_reports / "table1.md").read_text())
+    shown = find(tables, "claim", "verdict", "ours / paper")
     claims = pd.read_csv(quick_reports / "data/table1_claims.csv")
     assert len(shown) == len(claims)
     for (_, row), (_, data) in zip(shown.iterrows(), claims.iterrows()):
         assert row["claim"] == data["claim"]
         assert row["verdict"].strip("*") == data["verdict"]
-        assert _close(_number(row["ours / paper"]), data["ratio_ours_to_paper"])
+        assert close(number(row["ours / paper"]), data["ratio_ours_to_paper"])
         ours = row["ours (median [IQR])"]
-        got = _triple(ours)[0] if "[" in ours else _number(ours.split()[0])
-        assert _close(got, data["ours"]), data["claim"]
+        got = triple(ours)[0] if "[" in ours else number(ours.split()[0])
+        assert close(got, data["ours"]), data["claim"]
 
 
 def test_report_rerenders_from_data_alone(quick_reports, monkeypatch, capsys):

@@ -20,7 +20,7 @@ __all__ = ["build_parser", "main"]
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand registered."""
-    from replication.cli import force, reports, surfaces
+    from replication.cli import casestudy, force, reports, surfaces
 
     parser = argparse.ArgumentParser(
         prog="replication",
@@ -33,6 +33,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     surfaces.register(sub)
     force.register(sub)
+    casestudy.register(sub)
     reports.register(sub)
     return parser
 

@@ -20,7 +20,7 @@ def progress_bar(items: Iterable[Any], description: str, total: int) -> Iterable
     return tqdm(items, desc=description, total=total, file=sys.stderr, leave=False, dynamic_ncols=True)
 
 
-def _output_dir(args: argparse.Namespace) -> Path:
+def output_dir(args: argparse.Namespace) -> Path:
     out = Path(args.output_dir or (QUICK_DIR if getattr(args, "quick", False) else DEFAULT_DIR))
     out.mkdir(parents=True, exist_ok=True)
     return out
@@ -39,7 +39,7 @@ def _run_table1(out: Path, quick: bool, command: str) -> Path:
 def _cmd_table1(args: argparse.Namespace) -> int:
     from replication.report.index import render_index
 
-    out = _output_dir(args)
+    out = output_dir(args)
     start = time.perf_counter()
     path = _run_table1(out, args.quick, args.invocation)
     render_index(out)
@@ -48,6 +48,7 @@ def _cmd_table1(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
+    from replication.report.casestudy import render_casestudy
     from replication.report.index import render_index
     from replication.report.table1 import render_table1
 
@@ -59,6 +60,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
         written.append(render_performance(args.asv_results, out, commits=args.commits))
     if (out / "data" / "table1_provenance.json").is_file():
         written.append(render_table1(out))
+    if (out / "data" / "casestudy_provenance.json").is_file():
+        written.append(render_casestudy(out))
     if not written:
         from replication.errors import CloudFileError
 
@@ -71,24 +74,29 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 STAGES = (
     ("table1", "Table 1 and Fig. 6: file size, computation time and paired statistics, ADT vs NURBS"),
-    ("casestudy", "Figs. 8 and 9: the water-jet genetic algorithm [not yet available]"),
+    ("casestudy", "Figs. 8 and 9: the water-jet genetic algorithm"),
 )
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from replication.cli.casestudy import run_and_report
     from replication.report.index import render_index
 
-    out = _output_dir(args)
+    out = output_dir(args)
     kind = "quick (reduced) run" if args.quick else "full run"
     print(f"replication reproduce: {kind} into {out}/")
     start = time.perf_counter()
     for name, what in STAGES:
+        t0 = time.perf_counter()
         if name == "table1":
-            t0 = time.perf_counter()
             path = _run_table1(out, args.quick, args.invocation)
-            print(f"  [done] {name}: {what} -> {path} ({time.perf_counter() - t0:.1f} s)")
         else:
-            print(f"  [skip] {name}: {what}")
+            ga_args = argparse.Namespace(
+                quick=args.quick, runs=None, generations=None, population=None, seed=None, run_dir=None,
+                resume=False, executor="auto", workers=None, scheduler=None, invocation=args.invocation,
+            )  # fmt: skip
+            path = run_and_report(ga_args, out)[1]
+        print(f"  [done] {name}: {what} -> {path} ({time.perf_counter() - t0:.1f} s)")
     index = render_index(out)
     print(f"wrote {index}; total {time.perf_counter() - start:.1f} s")
     return 0

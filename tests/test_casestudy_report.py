@@ -1,0 +1,87 @@
+"""The case study end to end: report structure, numbers equal the CSV data, CLI and resume."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from mdtables import find, number, parse_tables
+from replication.cli import main
+
+pytestmark = pytest.mark.slow
+
+
+def test_report_structure(quick_reports):
+    text = (quick_reports / "casestudy.md").read_text()
+    for heading in ("## What was run", "## The paper's numbers beside ours", "## Reference shapes",
+                    "## Fig. 8", "## Fig. 9", "## Runs", "## What differs from the paper",
+                    "## How this report was made"):  # fmt: skip
+        assert heading in text, heading
+    assert "Quick run" in text and "- Command: `replication reproduce --quick" in text
+    for name in ("casestudy_fig8.png", "casestudy_fig8.svg", "casestudy_fig9.png", "casestudy_best_run0.png"):
+        assert (quick_reports / "figures" / name).is_file(), name
+    assert "[Figs. 8 and 9](casestudy.md)" in (quick_reports / "index.md").read_text()
+
+
+def test_claims_and_shapes_equal_csv(quick_reports):
+    found = parse_tables((quick_reports / "casestudy.md").read_text())
+    claims = pd.read_csv(quick_reports / "data/casestudy_claims.csv")
+    shown = find(found, "claim", "verdict", "why")
+    assert len(shown) == len(claims)
+    for (_, row), (_, data) in zip(shown.iterrows(), claims.iterrows()):
+        assert row["claim"] == data["claim"] and row["verdict"].strip("*") == data["verdict"]
+        assert abs(number(row["ours"]) - data["ours"]) <= 5e-4 * abs(data["ours"])  # 4 significant digits
+    shapes = pd.read_csv(quick_reports / "data/casestudy_shapes.csv")
+    shown = find(found, "shape", "paper, SPH [N]")
+    for (_, row), (_, data) in zip(shown.iterrows(), shapes.iterrows()):
+        assert abs(number(row["ours [N]"]) - data["axial_N"]) <= 5e-4 * data["axial_N"]
+        assert number(row["paper, SPH [N]"]) == data["paper_sph_N"]
+
+
+def test_runs_table_equals_csv(quick_reports):
+    found = parse_tables((quick_reports / "casestudy.md").read_text())
+    runs = pd.read_csv(quick_reports / "data/casestudy_runs.csv")
+    shown = find(found, "best force [N]", "saved by cache")
+    for (_, row), (_, data) in zip(shown.iterrows(), runs.iterrows()):
+        assert abs(number(row["best force [N]"]) - data["best_N"]) <= 5e-4 * data["best_N"]
+        assert number(row["evaluations"]) == data["evaluations"]
+        assert number(row["saved by cache"]) == data["cache_hits"]
+    history = pd.read_csv(quick_reports / "data/casestudy_history.csv")
+    best = history.groupby("run")["best_so_far"].last().to_numpy()
+    np.testing.assert_allclose(best, runs["best_N"])
+
+
+TINY = ["--runs", "2", "--generations", "3", "--population", "6", "--executor", "serial"]
+
+
+def test_casestudy_cli_json_and_resume(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    args = ["casestudy", *TINY, "--run-dir", "run", "--output-dir", "out", "--json"]
+    assert main(args) == 0
+    first = json.loads(capsys.readouterr().out)
+    assert len(first["runs"]) == 2 and first["evaluations"] + first["saved_by_cache"] == 2 * 3 * 6
+    assert all(len(v) == 3 for v in first["best_so_far_N"].values())
+    assert set(first["reference_shapes_N"]) == {"flat plate", "pelton bucket"}
+    assert (tmp_path / "out" / "casestudy.md").is_file()
+
+    # the run directory holds checkpoints: refused without --resume, nothing overwritten
+    assert main(args) == 1
+    assert "--resume" in capsys.readouterr().err
+    # resuming finished runs reproduces the same results
+    assert main([*args, "--resume"]) == 0
+    again = json.loads(capsys.readouterr().out)
+    assert again["runs"] == first["runs"] and again["best_so_far_N"] == first["best_so_far_N"]
+    # other settings are refused
+    assert main(["casestudy", *TINY[:4], "--population", "8", "--executor", "serial", "--run-dir", "run",
+                 "--output-dir", "out", "--resume"]) == 1  # fmt: skip
+    assert "differs in: population" in capsys.readouterr().err
+
+
+def test_casestudy_help(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["casestudy", "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    for phrase in ("--resume", "--scheduler", "--workers", "checkpointed"):
+        assert phrase in out
