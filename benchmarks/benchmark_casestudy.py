@@ -1,0 +1,61 @@
+"""The case study (paper section 6): one jet-force evaluation and one GA generation."""
+
+import numpy as np
+
+from replication.casestudy.evaluate import Fitness, SerialExecutor, evaluate_batch
+from replication.casestudy.ga import GAConfig, initial_population, next_generation, points_from_genome
+from replication.casestudy.jet import surface_force
+from replication.casestudy.shapes import pelton_bucket_surface
+
+from .common import quiet
+
+
+class JetForce:
+    """One evaluation of the force model on 101-point surfaces (target: at most 5 ms)."""
+
+    params = [["pelton bucket", "random"]]
+    param_names = ["surface"]
+
+    def setup(self, surface):
+        quiet()
+        from replication.surfaces import adt
+
+        if surface == "pelton bucket":
+            self.surface = pelton_bucket_surface()
+        else:
+            genome = np.random.default_rng(1234).integers(0, [37, 31, 14] * 101)
+            self.surface = adt(points_from_genome(genome, GAConfig()), depth="z")
+        surface_force(self.surface)
+
+    def time_surface_force(self, surface):
+        surface_force(self.surface)
+
+    def track_axial_force(self, surface):
+        return surface_force(self.surface).axial_force
+
+    track_axial_force.unit = "N"
+
+
+class GAGeneration:
+    """One generation of the paper's GA: 48 new individuals (operators + ADT + force), serial."""
+
+    def setup(self):
+        quiet()
+        self.config = GAConfig()
+        rng = np.random.default_rng(2019)
+        self.population = initial_population(self.config, rng=rng)
+        self.fitness = Fitness(self.config)
+        values = evaluate_batch(SerialExecutor(), self.fitness, list(self.population))
+        self.values = np.array([v.value for v in values])
+        self.state = rng.bit_generator.state
+
+    def time_generation(self):
+        rng = np.random.default_rng()
+        rng.bit_generator.state = self.state
+        children = next_generation(self.population, self.values, self.config, rng=rng)
+        evaluate_batch(SerialExecutor(), self.fitness, list(children))
+
+    def time_operators_only(self):
+        rng = np.random.default_rng()
+        rng.bit_generator.state = self.state
+        next_generation(self.population, self.values, self.config, rng=rng)
