@@ -22,3 +22,17 @@ def test_exactly_two_setup_commands():
 def test_ci_runs_the_readme_test_command():
     ci = (ROOT / ".ci" / "run").read_text()
     assert _setup_commands()[1] in ci.splitlines()
+
+
+def test_readme_headline_block_matches_the_committed_reports():
+    """The README's headline numbers are generated from reports/data (refresh them with
+    ``replication report --readme README.md`` after regenerating the reports)."""
+    import pytest
+
+    from replication.report.index import END, START, headline
+
+    if not (ROOT / "reports" / "data").is_dir():
+        pytest.skip("no committed reports yet")
+    text = (ROOT / "README.md").read_text()
+    block = text.split(START, 1)[1].split(END, 1)[0].strip().splitlines()
+    assert block == headline(ROOT / "reports")

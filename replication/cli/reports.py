@@ -67,6 +67,10 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
         raise CloudFileError(f"no report data under {out / 'data'}: run `replication reproduce` first")
     written.append(render_index(out))
+    if args.readme:
+        from replication.report.index import update_readme
+
+        written.append(update_readme(args.readme, out))
     for path in written:
         print(f"wrote {path}")
     return 0
@@ -143,5 +147,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--commits", type=int, default=5, help="how many recent commits performance.md shows (default 5)"
+    )
+    p.add_argument(
+        "--readme", metavar="FILE", help="also refresh the headline block of this README from the data"
     )
     p.set_defaults(func=_cmd_report)
