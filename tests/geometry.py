@@ -64,3 +64,10 @@ def assert_valid_delaunay(uv: np.ndarray, triangles: np.ndarray) -> None:
     edges = np.unique(np.sort(directed, axis=1), axis=0).shape[0]
     assert n - edges + triangles.shape[0] == 1, "not a triangulated disk"
     assert delaunay_violations(uv, triangles) == 0
+
+
+#: A thin cloud along the diagonal of a 10 x 10 square: its bounding-box corners (0, 10) and
+#: (10, 0) lie outside its convex hull.
+DIAGONAL_CLOUD = np.array(
+    [[0, 0, 0], [10, 10, 1], [5, 5, 2], [6, 4, 0], [4, 6, 1], [5, 4, 2], [4, 5, 0], [6, 5, 1], [5, 6, 2.0]]
+)

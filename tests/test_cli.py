@@ -7,6 +7,7 @@ import sys
 import numpy as np
 import pytest
 
+from geometry import DIAGONAL_CLOUD
 from replication.cli import main
 from replication.io import load_cloud, read_surface, save_cloud
 
@@ -246,19 +247,7 @@ def test_compare_matches_the_library(capsys, cloud_file):
 
 
 def test_compare_too_few_pairs_is_reported_not_an_error(capsys, tmp_path):
-    small = np.array(
-        [
-            [0, 0, 0],
-            [10, 10, 1],
-            [5, 5, 2],
-            [6, 4, 0],
-            [4, 6, 1],
-            [5, 4, 2],
-            [4, 5, 0],
-            [6, 5, 1],
-            [5, 6, 2.0],
-        ]
-    )
+    small = DIAGONAL_CLOUD
     save_cloud(small, tmp_path / "s.csv")
     code, out, _ = run(capsys, "compare", str(tmp_path / "s.csv"), "--samples", "2x2", "--depth", "z")
     assert code == 0 and "too few pairs" in out

@@ -5,6 +5,7 @@ import warnings
 import numpy as np
 import pytest
 
+from geometry import DIAGONAL_CLOUD
 from replication.compare import compare, pair_at_cloud_points, pair_at_nurbs_samples
 from replication.errors import DuplicatePointsWarning, InputError
 from replication.surfaces import adt, random_cloud
@@ -77,19 +78,7 @@ def test_tiny_pairings_have_no_statistics():
     assert result.pairings["nurbs-samples"].n == 4 and result.statistics["nurbs-samples"] is not None
     # a thin cloud along the diagonal, sampled 2 x 2 at its bounding-box corners: (0, 0) and
     # (10, 10) are cloud points, (0, 10) and (10, 0) lie outside the hull -> 2 pairs, no tests
-    small = np.array(
-        [
-            [0, 0, 0],
-            [10, 10, 1],
-            [5, 5, 2],
-            [6, 4, 0],
-            [4, 6, 1],
-            [5, 4, 2],
-            [4, 5, 0],
-            [6, 5, 1],
-            [5, 6, 2.0],
-        ]
-    )
+    small = DIAGONAL_CLOUD
     result = compare(small, depth="z", sample_shape=(2, 2))
     assert result.pairings["nurbs-samples"].n == 2
     assert result.statistics["nurbs-samples"] is None

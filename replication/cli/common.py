@@ -19,6 +19,7 @@ __all__ = [
     "add_frame_options",
     "check_output",
     "emit_json",
+    "frame_kwargs",
     "load_or_generate",
     "pair",
     "positive_int",
@@ -97,6 +98,11 @@ def add_frame_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--backend", choices=BACKENDS, default="auto", help="2-D Delaunay backend (default: auto = sweephull)"
     )
+
+
+def frame_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """The frame options (--depth, --duplicates, --backend) as keyword arguments."""
+    return {"depth": args.depth, "duplicates": args.duplicates, "backend": args.backend}
 
 
 def load_or_generate(args: argparse.Namespace) -> tuple[np.ndarray, str, dict[str, Any]]:

@@ -11,6 +11,7 @@ from replication.cli.common import (
     add_frame_options,
     check_output,
     emit_json,
+    frame_kwargs,
     load_or_generate,
     pair,
     relay_warnings,
@@ -87,7 +88,7 @@ def _cmd_adt(args: argparse.Namespace) -> int:
                 "points_merged": sum(h.n_merged for h in halves),
             }
         else:
-            surface = adt(cloud, depth=args.depth, duplicates=args.duplicates, backend=args.backend)
+            surface = adt(cloud, **frame_kwargs(args))
             mesh = surface
             halves = (surface,)
             info = {
@@ -158,11 +159,9 @@ def _cmd_nurbs(args: argparse.Namespace) -> int:
             cloud,
             degree=args.degree,
             net=args.net,
-            depth=args.depth,
-            duplicates=args.duplicates,
-            backend=args.backend,
             tessellation=args.tessellation,
             evaluator=args.evaluator,
+            **frame_kwargs(args),
         )
     build_s = time.perf_counter() - start
     written = write_nurbs(nurbs.patch, args.output, fmt) if args.output else None
@@ -240,12 +239,10 @@ def _cmd_compare(args: argparse.Namespace) -> int:
             cloud,
             degree=args.degree,
             net=args.net,
-            depth=args.depth,
-            duplicates=args.duplicates,
-            backend=args.backend,
             sample_shape=args.samples,
             margin_fraction=args.margin,
             alpha=args.alpha,
+            **frame_kwargs(args),
         )
     m_u, m_v = result.nurbs.patch.net_shape
     pairings: dict[str, Any] = {}

@@ -53,11 +53,17 @@ def provenance_section(record: dict[str, Any]) -> str:
     commit = record.get("commit") or "unknown (not a git checkout)"
     if record.get("dirty"):
         commit += " (with uncommitted changes)"
+    from replication.provenance import git_state
+
+    rendered = git_state()
+    render_commit = rendered.get("commit") or "unknown"
+    if rendered.get("dirty"):
+        render_commit += " (with uncommitted changes)"
     lines = [
         "## How this report was made",
         "",
         f"- Command: `{record.get('command', '?')}`",
-        f"- Code: git commit `{commit}`",
+        f"- Code: git commit `{commit}` (computed the data); rendered by commit `{render_commit}`",
         f"- Date (UTC): {record.get('date_utc', '?')}",
         f"- Machine: {record.get('cpu', '?')}, {record.get('cores', '?')} cores; "
         f"{record.get('platform', '?')}",
