@@ -1,12 +1,11 @@
 """ADT (paper section 3.2): build, build + write, memory and file size."""
 
 import os
-import tempfile
 
 from replication.io import write_vtk, write_vtp
 from replication.surfaces import adt
 
-from .common import PAPER_NS, SCALE_NS, cloud
+from .common import PAPER_NS, SCALE_NS, cloud, scratch_dir
 
 
 class ADTPaperSizes:
@@ -17,7 +16,7 @@ class ADTPaperSizes:
 
     def setup(self, n, backend):
         self.points = cloud(n)
-        self.tmp = tempfile.mkdtemp()
+        self.tmp = scratch_dir()
         adt(self.points, backend=backend)  # warm the JIT cache
 
     def teardown(self, n, backend):
@@ -46,7 +45,7 @@ class ADTScale:
 
     def setup(self, n):
         self.points = cloud(n)
-        self.tmp = tempfile.mkdtemp()
+        self.tmp = scratch_dir()
         adt(cloud(50))
 
     def teardown(self, n):

@@ -1,7 +1,6 @@
 """The NURBS baseline (paper section 3.1): build, write, file size, evaluator speed."""
 
 import os
-import tempfile
 
 import numpy as np
 
@@ -11,7 +10,7 @@ from replication.surfaces import adt
 from replication.surfaces.bspline import evaluate_grid
 from replication.surfaces.nurbs import NurbsPatch, clamped_uniform_knots, fit_nurbs
 
-from .common import PAPER_NS, cloud
+from .common import PAPER_NS, cloud, scratch_dir
 
 
 class NURBSPaperSizes:
@@ -20,7 +19,7 @@ class NURBSPaperSizes:
 
     def setup(self, n):
         self.points = cloud(n)
-        self.tmp = tempfile.mkdtemp()
+        self.tmp = scratch_dir()
         self.nurbs = fit_nurbs(self.points)
         fit_nurbs(self.points, evaluator="fast")
 
