@@ -110,3 +110,14 @@ def test_report_rerenders_from_data_alone(quick_reports, monkeypatch, capsys):
 def test_report_without_data_is_a_clear_error(tmp_path, capsys):
     assert main(["report", "--output-dir", str(tmp_path)]) == 1
     assert "no report data" in capsys.readouterr().err
+
+
+def test_figures_are_byte_identical_when_re_rendered(quick_reports, tmp_path):
+    import pandas as pd
+
+    from replication.report.figures import fig6
+
+    mc = pd.read_csv(quick_reports / "data/table1_montecarlo.csv")
+    first = [p.read_bytes() for p in fig6(mc, tmp_path / "a")]
+    second = [p.read_bytes() for p in fig6(mc, tmp_path / "a")]
+    assert first == second

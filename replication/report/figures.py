@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import matplotlib
 import numpy as np
 import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -25,7 +26,8 @@ def save_figure(
     for ext in formats:
         path = Path(f"{stem}.{ext}")
         metadata = {"Date": None} if ext == "svg" else {"Software": None}
-        with atomic_path(path) as tmp:
+        # a fixed salt for SVG element ids: the same data give byte-identical files
+        with matplotlib.rc_context({"svg.hashsalt": "replication"}), atomic_path(path) as tmp:
             fig.savefig(tmp, format=ext, dpi=150, metadata=metadata, bbox_inches="tight")
         paths.append(path)
     return paths
