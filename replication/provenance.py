@@ -37,24 +37,36 @@ def cpu_model() -> str:
     return platform.processor() or platform.machine() or "unknown"
 
 
-def git_state(directory: str | os.PathLike[str] | None = None) -> dict[str, Any]:
-    """Commit hash and whether the work tree had uncommitted changes (None outside git)."""
-    cwd = Path(directory) if directory else Path(__file__).resolve().parent
+def _git(args: list[str], cwd: Path) -> str | None:
     try:
-        commit = subprocess.run(
-            ["git", "rev-parse", "HEAD"], cwd=cwd, capture_output=True, text=True, check=True, timeout=10
-        ).stdout.strip()
-        dirty = subprocess.run(
-            ["git", "status", "--porcelain", "--untracked-files=no"],
-            cwd=cwd,
-            capture_output=True,
-            text=True,
-            check=True,
-            timeout=10,
-        ).stdout.strip()
+        result = subprocess.run(["git", *args], cwd=cwd, capture_output=True, text=True, timeout=10)
     except (OSError, subprocess.SubprocessError):
-        return {"commit": None, "dirty": None}
-    return {"commit": commit, "dirty": bool(dirty)}
+        return None
+    return result.stdout.strip() if result.returncode == 0 else None
+
+
+def git_state(directory: str | os.PathLike[str] | None = None) -> dict[str, Any]:
+    """Commit of the project checkout and whether its code had uncommitted changes.
+
+    The checkout is looked for from ``directory`` (default: the working directory, where
+    ``replication reproduce`` is run), then from this package's own location (an editable
+    install). Only the code counts as a change (``replication/`` and ``pyproject.toml``):
+    reports being regenerated do not make the code dirty. Both values are None outside a
+    checkout of this project.
+    """
+    here = Path(__file__).resolve().parent
+    for base in (Path(directory) if directory else Path.cwd(), here):
+        root = _git(["rev-parse", "--show-toplevel"], base) if base.is_dir() else None
+        if root is None or not (Path(root) / "replication" / "provenance.py").is_file():
+            continue
+        commit = _git(["rev-parse", "HEAD"], Path(root))
+        status = _git(
+            ["status", "--porcelain", "--untracked-files=no", "--", "replication", "pyproject.toml"],
+            Path(root),
+        )
+        if commit is not None and status is not None:
+            return {"commit": commit, "dirty": bool(status)}
+    return {"commit": None, "dirty": None}
 
 
 def _version(name: str) -> str | None:
