@@ -26,7 +26,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from replication.errors import InputError
+from replication.errors import DegenerateInputError, InputError
 from replication.stats import PairedStatistics, paired_statistics
 from replication.surfaces.adt import DEFAULT_TIE_RTOL, Surface, adt
 from replication.surfaces.bspline import evaluate, invert, parameter_grid
@@ -175,6 +175,11 @@ def compare(
     surface = adt(cloud, depth=depth, duplicates=duplicates, backend=backend, tie_rtol=tie_rtol)
     nurbs = fit_nurbs(cloud, degree=degree, net=net, tessellation=None, triangulation=surface)
     depth_range = float(np.ptp(cloud[:, surface.depth_axis]))
+    if depth_range == 0.0:
+        raise DegenerateInputError(
+            f"the cloud is flat along its depth axis {surface.depth_axis_name} (all depths equal): both "
+            "surfaces are the same plane and deviations relative to the depth range are undefined"
+        )
     pairings = {
         "nurbs-samples": pair_at_nurbs_samples(surface, nurbs, sample_shape),
         "cloud-points": pair_at_cloud_points(surface, nurbs),

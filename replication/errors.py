@@ -10,6 +10,7 @@ exit status) can catch one type. Errors about the caller's data or parameters ar
 from __future__ import annotations
 
 __all__ = [
+    "shown",
     "ReplicationError",
     "InputError",
     "CloudFileError",
@@ -17,6 +18,12 @@ __all__ = [
     "OutputError",
     "DuplicatePointsWarning",
 ]
+
+
+def shown(indices, limit: int = 10) -> str:
+    """``"3, 7, 12, ..."``: the first ``limit`` indices for an error message."""
+    items = [str(int(i)) for i in list(indices)[: limit + 1]]
+    return ", ".join(items[:limit]) + (", ..." if len(items) > limit else "")
 
 
 class ReplicationError(Exception):

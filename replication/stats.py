@@ -13,7 +13,8 @@ so beside the paper's two tests and its verdict this module reports what that lo
   pairs, where Shapiro-Wilk's p-value is unreliable), naming the appropriate test;
 * a two one-sided tests (TOST) equivalence test with margin +-5 % of the depth range (the
   paper's "under 5 %"): the surfaces are declared equivalent when both one-sided t-tests
-  reject, i.e. when the 90 % confidence interval of the mean lies inside the margin.
+  reject, i.e. when the (1 - 2 alpha) confidence interval of the mean (``tost_ci``, 90 % at
+  the paper's alpha) lies inside the margin. ``ci95`` is always the 95 % interval.
 
 Edge cases are settled explicitly: when every difference is zero the tests cannot be
 computed by scipy; their p-values are then 1 (no evidence of a difference) and TOST declares
@@ -70,7 +71,7 @@ class PairedStatistics:
     margin: float
     margin_fraction: float
     tost_p: float
-    ci90: tuple[float, float]
+    tost_ci: tuple[float, float]
     equivalent: bool
 
     @property
@@ -79,8 +80,18 @@ class PairedStatistics:
         return "similar" if self.t_test.similar and self.wilcoxon.similar else "different"
 
     def as_dict(self) -> dict[str, Any]:
-        """A JSON-ready dictionary (floats, bools, lists)."""
-        d = asdict(self)
+        """A JSON-ready dictionary (floats, bools, lists; NaN and infinities become None)."""
+
+        def clean(value: Any) -> Any:
+            if isinstance(value, dict):
+                return {k: clean(v) for k, v in value.items()}
+            if isinstance(value, (list, tuple)):
+                return [clean(v) for v in value]
+            if isinstance(value, float) and not np.isfinite(value):
+                return None
+            return value
+
+        d = clean(asdict(self))
         d["paper_verdict"] = self.paper_verdict
         return d
 
@@ -133,14 +144,15 @@ def paired_statistics(
     n = d.size
     mean = float(d.mean())
     sd = float(d.std(ddof=1))
-    se = sd / np.sqrt(n)
-    t95 = float(stats.t.ppf(1 - alpha / 2, n - 1))
-    t90 = float(stats.t.ppf(1 - alpha, n - 1))
+    t95 = float(stats.t.ppf(0.975, n - 1))  # the 95 % interval whatever alpha is
+    t_tost = float(stats.t.ppf(1 - alpha, n - 1))  # the (1 - 2 alpha) interval TOST is equivalent to
     margin = margin_fraction * depth_range
     rms = float(np.sqrt(np.mean(d**2)))
     max_abs = float(np.max(np.abs(d)))
 
-    if sd == 0.0:  # constant differences: scipy's tests are undefined
+    if sd <= 1e-12 * max(float(np.max(np.abs(d))), np.finfo(float).tiny):
+        # constant differences (up to rounding): scipy's tests are undefined or meaningless
+        sd = 0.0
         t_res = TestResult(np.inf if mean else 0.0, 0.0 if mean else 1.0, mean == 0.0)
         w_res = TestResult(0.0, 0.0 if mean else 1.0, mean == 0.0)
         normality_name, normality_p = "constant differences", float("nan")
@@ -165,7 +177,7 @@ def paired_statistics(
         alpha=alpha,
         mean_difference=mean,
         sd_difference=sd,
-        ci95=(mean - t95 * se, mean + t95 * se),
+        ci95=(mean - t95 * sd / np.sqrt(n), mean + t95 * sd / np.sqrt(n)),
         cohens_dz=float(dz),
         rms=rms,
         max_abs=max_abs,
@@ -180,6 +192,6 @@ def paired_statistics(
         margin=margin,
         margin_fraction=margin_fraction,
         tost_p=tost_p,
-        ci90=(mean - t90 * se, mean + t90 * se),
+        tost_ci=(mean - t_tost * sd / np.sqrt(n), mean + t_tost * sd / np.sqrt(n)),
         equivalent=bool(tost_p < alpha),
     )

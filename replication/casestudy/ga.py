@@ -37,6 +37,7 @@ import numpy as np
 
 from replication.casestudy.jet import DEFAULT_RESOLUTION, JetConfig
 from replication.errors import InputError
+from replication.surfaces.cloud import lattice_values
 
 __all__ = [
     "GAConfig",
@@ -70,10 +71,11 @@ class GAConfig:
     jet: JetConfig = JetConfig()
 
     def __post_init__(self) -> None:
-        for name in ("population", "generations", "runs", "points", "resolution"):
+        for name in ("population", "generations", "runs", "points", "resolution", "elites"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-                raise InputError(f"GA {name} must be a positive integer, got {value!r}")
+            minimum = 0 if name == "elites" else 1
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+                raise InputError(f"GA {name} must be an integer >= {minimum}, got {value!r}")
         if self.population < 4:
             raise InputError(
                 f"GA population must be at least 4 (two seeds and a pair), got {self.population}"
@@ -95,6 +97,25 @@ class GAConfig:
             raise InputError(
                 f"duplicate policy must merge ('mean', 'min', 'max', 'first'), got {self.duplicates!r}"
             )
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise InputError(f"GA seed must be a non-negative integer, got {self.seed!r}")
+        if self.jet.domain is not None:  # every lattice point must lie in the jet model's domain
+            domain_mm = np.asarray(self.jet.domain) * 1e3
+            if lo.min() < 0 or np.any(hi > domain_mm * (1 + 1e-9)):
+                raise InputError(
+                    f"box {self.box} (mm) must lie inside the jet domain {domain_mm.tolist()} mm"
+                )
+        # the initial population seeds the flat plate and the bucket: they must fit this genome
+        from replication.casestudy.shapes import flat_plate_cloud
+
+        try:
+            genome_from_points(flat_plate_cloud(), self)
+        except InputError as exc:
+            raise InputError(
+                "the initial population seeds the flat plate and the Pelton bucket, 101 points on the 1 mm "
+                f"lattice of the 36 x 30 x 13 mm box; points={self.points}, box={self.box}, "
+                f"step={self.step} cannot hold them ({exc})"
+            ) from exc
 
     @property
     def genes(self) -> int:
@@ -113,9 +134,10 @@ class GAConfig:
 
 def genome_bounds(config: GAConfig) -> np.ndarray:
     """Largest lattice index of each gene (its axis's number of lattice values minus 1)."""
-    lo, hi = np.asarray(config.box[0::2], float), np.asarray(config.box[1::2], float)
-    per_axis = np.floor((hi - lo) / config.step + 1e-9).astype(np.int64)
-    return np.tile(per_axis, config.points)
+    per_axis = [
+        lattice_values(config.box[2 * k], config.box[2 * k + 1], config.step).size - 1 for k in range(3)
+    ]
+    return np.tile(np.asarray(per_axis, dtype=np.int64), config.points)
 
 
 def points_from_genome(genome: np.ndarray, config: GAConfig) -> np.ndarray:

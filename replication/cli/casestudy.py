@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from replication.cli.common import emit_json, positive_int
+from replication.cli.common import emit_json, positive_int, seed
 
 EPILOG = """\
 examples:
@@ -46,10 +46,15 @@ def run_and_report(args: argparse.Namespace, out: Path) -> tuple[Any, Path, Path
     from tqdm import tqdm
 
     from replication.casestudy.evaluate import executor
+    from replication.errors import InputError
     from replication.experiments.casestudy import run_casestudy
     from replication.report.casestudy import render_casestudy, save_casestudy_data
 
     config = _config(args)
+    if args.resume and not args.run_dir:
+        raise InputError("--resume continues the runs in --run-dir DIR: name the directory to resume")
+    if args.resume and not any(Path(args.run_dir).glob("run-*.json")):
+        raise InputError(f"nothing to resume: {args.run_dir} holds no GA checkpoint (run-*.json)")
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     run_dir = Path(args.run_dir) if args.run_dir else Path("casestudy-runs") / f"run-{stamp}"
     print(f"GA run directory: {run_dir} (resume with --run-dir {run_dir} --resume)", file=sys.stderr)
@@ -125,7 +130,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--generations", type=positive_int, help="generations per run, the initial one included (50)"
     )
     p.add_argument("--population", type=positive_int, help="individuals per generation (default 48)")
-    p.add_argument("--seed", type=int, help="base seed; run k uses [seed, k] (default 2019)")
+    p.add_argument("--seed", type=seed, help="base seed; run k uses [seed, k] (default 2019)")
     p.add_argument(
         "--run-dir", metavar="DIR", help="checkpoint directory (default: casestudy-runs/run-<time>)"
     )

@@ -23,6 +23,7 @@ __all__ = [
     "load_or_generate",
     "pair",
     "positive_int",
+    "seed",
     "relay_warnings",
 ]
 
@@ -35,6 +36,17 @@ def positive_int(text: str) -> int:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
+    return value
+
+
+def seed(text: str) -> int:
+    """argparse type: a non-negative integer seed."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer seed, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer seed, got {value}")
     return value
 
 
@@ -62,7 +74,9 @@ def add_cloud_source(p: argparse.ArgumentParser) -> None:
     )
     g = p.add_argument_group("random cloud (instead of INPUT)")
     g.add_argument("--random", type=positive_int, metavar="N", help="generate N random points")
-    g.add_argument("--seed", type=int, default=None, metavar="S", help="random seed (default: fresh entropy)")
+    g.add_argument(
+        "--seed", type=seed, default=None, metavar="S", help="random seed (default: fresh entropy)"
+    )
     g.add_argument(
         "--box",
         type=float,
@@ -160,7 +174,7 @@ def _jsonable(value: Any) -> Any:
     if isinstance(value, (list, tuple)):
         return [_jsonable(v) for v in value]
     if isinstance(value, np.generic):
-        return value.item()
+        return _jsonable(value.item())
     if isinstance(value, float) and not np.isfinite(value):
         return None if np.isnan(value) else ("inf" if value > 0 else "-inf")
     return value
@@ -168,4 +182,4 @@ def _jsonable(value: Any) -> Any:
 
 def emit_json(report: dict[str, Any]) -> None:
     """Print one JSON object (NaN becomes null so that strict parsers accept it)."""
-    print(json.dumps(_jsonable(report)))
+    print(json.dumps(_jsonable(report), allow_nan=False))

@@ -65,6 +65,7 @@ margin of 5 % of the depth range.
 
 
 def _cmd_adt(args: argparse.Namespace) -> int:
+    from replication.errors import InputError
     from replication.io import surface_format, write_surface
     from replication.surfaces import AXES, adt, closed_adt, parse_split
 
@@ -74,6 +75,11 @@ def _cmd_adt(args: argparse.Namespace) -> int:
     with relay_warnings():
         cloud, source, meta = load_or_generate(args)
         if args.split:
+            if args.depth != "min":
+                raise InputError(
+                    f"--depth {args.depth} does not apply with --split: each half is a height field over "
+                    "the split plane, whose normal is the depth axis"
+                )
             closed = closed_adt(
                 cloud, parse_split(args.split), duplicates=args.duplicates, backend=args.backend
             )

@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from replication.casestudy.evaluate import Fitness
-from replication.casestudy.ga import GAConfig, points_from_genome
+from replication.casestudy.ga import GAConfig, points_from_genome, random_genome
 from replication.casestudy.jet import surface_force
 from replication.casestudy.runner import ExecutorFactory, GARun, run_ga
 from replication.casestudy.shapes import (
@@ -76,7 +76,8 @@ def _shapes(config: GAConfig) -> pd.DataFrame:
             "shape": name, "axial_N": default.axial_force, "axial_4x_N": fine.axial_force,
             "refinement_change_pct": 100 * (fine.axial_force - default.axial_force) / default.axial_force,
             "force_x_N": default.force[0], "force_y_N": default.force[1], "force_z_N": default.force[2],
-            "over_rho_q_v": default.axial_force / rho_q_v, "full_jet_mirrored_N": 2 * default.axial_force,
+            "rho_q_v_N": rho_q_v, "over_rho_q_v": default.axial_force / rho_q_v,
+            "full_jet_mirrored_N": 2 * default.axial_force,
             "paper_sph_N": PAPER_SPH_FORCES[name],
         })  # fmt: skip
     return pd.DataFrame(rows)
@@ -90,14 +91,14 @@ def _evaluation_cost(config: GAConfig, repeats: int) -> pd.DataFrame:
     genomes = {
         "flat plate": genome_from_points(flat_plate_cloud(), config),
         "pelton bucket": genome_from_points(pelton_bucket_cloud(), config),
-        "random": np.random.default_rng([config.seed, 99]).integers(0, [37, 31, 14] * 101),
+        "random": random_genome(config, rng=np.random.default_rng([config.seed, 99])),
     }
     timing = interleaved({k: (lambda g=g: fitness(g)) for k, g in genomes.items()}, repeats=repeats, warmup=3)
     rows = []
     for name, group in timing.groupby("task", sort=False):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DuplicatePointsWarning)
-            surface = adt(points_from_genome(genomes[name], config), depth="z")
+            surface = adt(points_from_genome(genomes[name], config), depth="z", duplicates=config.duplicates)
         size = len(legacy_vtk_text(surface.points, surface.triangles).encode())
         rows.append({"individual": name, **summarize(group["seconds"]), "vtk_bytes": size})
     return pd.DataFrame(rows)

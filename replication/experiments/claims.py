@@ -67,7 +67,13 @@ def factor_verdict(ours: float, paper: float, *, smaller_is_adt_better: bool) ->
 
 
 def combine(verdicts: list[str]) -> str:
-    """Combine per-n verdicts: all hold -> holds; all fail -> does not hold; else partly."""
+    """Combine per-n verdicts: all hold -> holds; all fail -> does not hold; else partly.
+
+    Verdicts that could not be computed are left out; if none is left: cannot be compared.
+    """
+    verdicts = [v for v in verdicts if v != "cannot be compared"]
+    if not verdicts:
+        return "cannot be compared"
     if all(v == "holds" for v in verdicts):
         return "holds"
     if all(v == "does not hold" for v in verdicts):
@@ -101,8 +107,9 @@ class _Row:
         }
 
 
-def _mc(mc: pd.DataFrame, n: int, quantity: str) -> tuple[float, float, float]:
-    row = mc[(mc["n"] == n) & (mc["quantity"] == quantity)]
+def _mc(frame: pd.DataFrame, n: int, quantity: str) -> tuple[float, float, float]:
+    """(median, q1, q3) of a summarised quantity at n, NaN when absent."""
+    row = frame[(frame["n"] == n) & (frame["quantity"] == quantity)]
     if row.empty:
         return (np.nan, np.nan, np.nan)
     r = row.iloc[0]
@@ -112,14 +119,6 @@ def _mc(mc: pd.DataFrame, n: int, quantity: str) -> tuple[float, float, float]:
 def _fraction(mc: pd.DataFrame, n: int, quantity: str) -> float:
     row = mc[(mc["n"] == n) & (mc["quantity"] == quantity)]
     return float(row.iloc[0]["fraction"]) if not row.empty else np.nan
-
-
-def _timing(timings: pd.DataFrame, n: int, quantity: str) -> tuple[float, float, float]:
-    row = timings[(timings["n"] == n) & (timings["quantity"] == quantity)]
-    if row.empty:
-        return (np.nan, np.nan, np.nan)
-    r = row.iloc[0]
-    return float(r["median"]), float(r["q1"]), float(r["q3"])
 
 
 def _fmt_ns(ns: list[int]) -> str:
@@ -171,16 +170,14 @@ def table1_claims(montecarlo: pd.DataFrame, timings: pd.DataFrame, ns: tuple[int
             ("adt_s_9", "ADT computation time, 9 points", "s", ("t", "adt [s]")),
             ("nurbs_s_9", "NURBS computation time (geomdl), 9 points", "s", ("t", "nurbs_geomdl [s]")),
         ):
-            med, q1, q3 = (
-                _mc(montecarlo, 9, source[1]) if source[0] == "mc" else _timing(timings, 9, source[1])
-            )
+            med, q1, q3 = _mc(montecarlo if source[0] == "mc" else timings, 9, source[1])
             rows.append(_Row(label, PAPER[key], med, q1, q3, unit, "cannot be compared", why_abs))
     if large == 200:
         med, q1, q3 = _mc(montecarlo, 200, "size_difference")
         rows.append(_Row("NURBS minus ADT file size, 200 points", PAPER["size_difference_200"], med, q1, q3,
                          "bytes", "cannot be compared", why_abs))  # fmt: skip
-        g = _timing(timings, 200, "nurbs_geomdl [s]")
-        a = _timing(timings, 200, "adt [s]")
+        g = _mc(timings, 200, "nurbs_geomdl [s]")
+        a = _mc(timings, 200, "adt [s]")
         label = "NURBS minus ADT computation time (geomdl), 200 points"
         rows.append(_Row(label, PAPER["time_difference_200"], g[0] - a[0], np.nan, np.nan, "s",
                          "cannot be compared", why_abs))  # fmt: skip
@@ -205,7 +202,7 @@ def table1_claims(montecarlo: pd.DataFrame, timings: pd.DataFrame, ns: tuple[int
         ("geomdl, the paper-faithful NURBS", "nurbs_geomdl/adt"),
         ("fast NdBSpline evaluator", "nurbs_fast/adt"),
     ):
-        per_n = {n: _timing(timings, n, quantity) for n in ns}
+        per_n = {n: _mc(timings, n, quantity) for n in ns}
         verdicts = {
             n: factor_verdict(v[0], PAPER["speed_ratio"], smaller_is_adt_better=False)
             for n, v in per_n.items()

@@ -28,27 +28,44 @@ def check_output_path(path: str | os.PathLike[str]) -> Path:
     return path
 
 
+def _mode_for(final: Path) -> int:
+    """The replaced file's permissions, or the umask's default for a new file."""
+    if final.exists():
+        return final.stat().st_mode & 0o777
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path next to ``path``; on success rename it to ``path``.
 
     The temporary name keeps ``path``'s suffix, so writers that choose a format by suffix
     (VTK, numpy) work on it. On any exception the temporary file is removed and the
-    destination is untouched.
+    destination is untouched; operating-system errors (an unwritable directory, a full
+    disk) become :class:`~replication.errors.OutputError` naming the file.
     """
     final = check_output_path(path)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{final.name}.", suffix=f".tmp{final.suffix}", dir=final.parent)
+    try:
+        fd, tmp_name = tempfile.mkstemp(
+            prefix=f".{final.name}.", suffix=f".tmp{final.suffix}", dir=final.parent
+        )
+    except OSError as exc:
+        raise OutputError(f"cannot write {final}: {exc.strerror or exc}") from exc
     os.close(fd)
     tmp = Path(tmp_name)
     try:
         yield tmp
         with open(tmp, "rb+") as handle:  # make the bytes durable before the rename
             os.fsync(handle.fileno())
-        os.chmod(tmp, 0o644)
+        os.chmod(tmp, _mode_for(final))
         os.replace(tmp, final)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
+        if isinstance(exc, OSError) and not isinstance(exc, OutputError):
+            raise OutputError(f"cannot write {final}: {exc.strerror or exc}") from exc
         raise
 
 

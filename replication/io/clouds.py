@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from replication.errors import CloudFileError, InputError
+from replication.errors import CloudFileError, InputError, shown
 from replication.io.atomic import atomic_path, atomic_write_text
 from replication.io.vtk import format_number
 from replication.surfaces.cloud import as_cloud
@@ -52,7 +52,7 @@ def _diagnose(path: Path, lines: list[tuple[int, str]], comma: bool) -> CloudFil
 
 def _load_text(path: Path) -> np.ndarray:
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark (Excel's UTF-8 CSV) is not data
     except UnicodeDecodeError as exc:
         raise CloudFileError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from exc
     numbered = [
@@ -63,8 +63,8 @@ def _load_text(path: Path) -> np.ndarray:
     if not numbered:
         raise CloudFileError(f"{path}: the file is empty (no data lines)")
     first_tokens = _split(numbered[0][1], "," in numbered[0][1])
-    if not all(_is_number(t) for t in first_tokens):
-        numbered = numbered[1:]  # a header line
+    if not any(_is_number(t) for t in first_tokens):
+        numbered = numbered[1:]  # a header line: no numeric token at all (a malformed data line has some)
         if not numbered:
             raise CloudFileError(f"{path}: the file has a header but no data lines")
     comma = "," in numbered[0][1]
@@ -77,8 +77,8 @@ def _load_text(path: Path) -> np.ndarray:
         raise _diagnose(path, numbered, comma)
     bad = np.flatnonzero(~np.isfinite(data).all(axis=1))
     if bad.size:
-        shown = ", ".join(str(numbered[i][0]) for i in bad[:10]) + (", ..." if bad.size > 10 else "")
-        raise CloudFileError(f"{path}: NaN or infinite coordinates on {bad.size} line(s): {shown}")
+        lines = shown(numbered[i][0] for i in bad)
+        raise CloudFileError(f"{path}: NaN or infinite coordinates on {bad.size} line(s): {lines}")
     return data
 
 

@@ -54,12 +54,13 @@ def load_casestudy_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     return loaded
 
 
-def _surface(points: np.ndarray) -> Any:
+def _surface(points: np.ndarray, duplicates: str) -> Any:
+    """The ADT surface an individual was scored on (depth z, the run's duplicate policy)."""
     from replication.surfaces import adt
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DuplicatePointsWarning)
-        return adt(points, depth="z")
+        return adt(points, depth="z", duplicates=duplicates)
 
 
 def _fig8(d: dict[str, Any], stem: Path) -> None:
@@ -88,18 +89,20 @@ def _fig8(d: dict[str, Any], stem: Path) -> None:
     save_figure(fig, stem)
 
 
-def _fig9(d: dict[str, Any], stem: Path, jet: dict[str, Any]) -> None:
+def _fig9(d: dict[str, Any], stem: Path, config: dict[str, Any]) -> None:
     best = d["best"]
     runs = sorted(best["run"].unique())
     fig = Figure(figsize=(4.2 * len(runs), 3.8))
     axes = np.atleast_1d(fig.subplots(1, len(runs)))
+    jet = config["jet"]
     cx, cy = (1e3 * v for v in jet["center"])
     radius = 1e3 * jet["diameter"] / 2
+    z_low, z_high = config["box"][4], config["box"][5]
     for ax, k in zip(axes, runs):
         pts = best[best["run"] == k][["x_mm", "y_mm", "z_mm"]].to_numpy()
-        surface = _surface(pts)
+        surface = _surface(pts, config["duplicates"])
         p = surface.points
-        levels = np.linspace(0, 13, 14)
+        levels = np.linspace(z_low, z_high, 14)
         filled = ax.tricontourf(p[:, 0], p[:, 1], surface.triangles, p[:, 2], levels=levels, cmap="cividis")
         ax.triplot(p[:, 0], p[:, 1], surface.triangles, color="k", lw=0.2, alpha=0.4)
         ax.add_patch(Wedge((cx, cy), radius, 0, 180, fill=False, color="red", lw=2))
@@ -114,11 +117,11 @@ def _fig9(d: dict[str, Any], stem: Path, jet: dict[str, Any]) -> None:
     save_figure(fig, stem)
 
 
-def _renders(d: dict[str, Any], figures: Path) -> tuple[list[str], str]:
+def _renders(d: dict[str, Any], figures: Path, duplicates: str) -> tuple[list[str], str]:
     views, names = {}, []
     best = d["best"]
     for k in sorted(best["run"].unique()):
-        surface = _surface(best[best["run"] == k][["x_mm", "y_mm", "z_mm"]].to_numpy())
+        surface = _surface(best[best["run"] == k][["x_mm", "y_mm", "z_mm"]].to_numpy(), duplicates)
         path = figures / f"casestudy_best_run{k}.png"
         views[path] = [("ADT", (surface.points, surface.triangles))]
         names.append(f"![best surface of run {k}](figures/{path.name})")
@@ -135,9 +138,10 @@ def render_casestudy(out_dir: str | os.PathLike[str]) -> Path:
     config = prov["config"]
     jet = config["jet"]
     _fig8(d, figures / "casestudy_fig8")
-    _fig9(d, figures / "casestudy_fig9", jet)
-    renders, renderer = _renders(d, figures)
-    rho_q_v = jet["density"] * jet["velocity"] ** 2 * np.pi * jet["diameter"] ** 2 / 8  # half jet
+    _fig9(d, figures / "casestudy_fig9", config)
+    renders, renderer = _renders(d, figures, config["duplicates"])
+    rho_q_v = float(d["shapes"]["rho_q_v_N"].iloc[0])
+    jet_part = "whole" if jet["full_jet"] else "half"
     shapes = d["shapes"]
     shape_rows = [
         [r["shape"], fmt(r["axial_N"], ".4g"), fmt(r["axial_4x_N"], ".4g"),
@@ -199,8 +203,8 @@ resolution {config["resolution"]}: {config["resolution"]} rings of streamlets ac
 
 ## Reference shapes
 
-Axial force of the half jet (data: `data/casestudy_shapes.csv`); rho Q V = {rho_q_v:.4g} N for the
-half jet. "4x" refines the streamlets and spreading directions four-fold.
+Axial force of the {jet_part} jet (data: `data/casestudy_shapes.csv`); rho Q V = {rho_q_v:.4g} N
+for the {jet_part} jet. "4x" refines the streamlets and spreading directions four-fold.
 
 {
         table(

@@ -25,17 +25,19 @@ __all__ = ["Inversion", "evaluate", "evaluate_grid", "invert", "parameter_grid"]
 
 def _params(params: np.ndarray) -> np.ndarray:
     params = np.asarray(params, dtype=np.float64).reshape(-1, 2)
-    if np.any(~np.isfinite(params)) or np.any((params < 0) | (params > 1)):
-        raise InputError("NURBS parameters must be finite and within [0, 1]")
+    bad = np.flatnonzero(~(np.isfinite(params) & (params >= 0) & (params <= 1)).all(axis=1))
+    if bad.size:
+        row = params[bad[0]].tolist()
+        raise InputError(f"NURBS parameters must be finite and within [0, 1]; row {bad[0]} is {row}")
     return params
 
 
 def evaluate(patch: NurbsPatch, params: np.ndarray, nu: tuple[int, int] = (0, 0)) -> np.ndarray:
     """Points (or first derivatives, ``nu=(1, 0)``/``(0, 1)``) at parameters, shape (k, 3)."""
     params = _params(params)
+    if not patch.rational:  # weights 1: the spline of the points is the surface
+        return patch.spline(params, nu=nu)[:, :3]
     h = patch.spline(params)
-    if not patch.rational:
-        return h[:, :3] if nu == (0, 0) else patch.spline(params, nu=nu)[:, :3]
     point = h[:, :3] / h[:, 3:]
     if nu == (0, 0):
         return point

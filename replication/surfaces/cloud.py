@@ -8,9 +8,9 @@ from dataclasses import astuple, dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from replication.errors import InputError
+from replication.errors import InputError, shown
 
-__all__ = ["Box", "CASE_STUDY_BOX", "as_cloud", "lattice_values", "random_cloud", "RNGLike"]
+__all__ = ["Box", "CASE_STUDY_BOX", "as_cloud", "lattice_values", "make_rng", "random_cloud", "RNGLike"]
 
 RNGLike = int | np.random.Generator | None
 
@@ -100,7 +100,7 @@ def random_cloud(
     """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise InputError(f"number of points must be a positive integer, got {n=!r}")
-    gen = np.random.default_rng(rng)
+    gen = make_rng(rng)
     lo, hi = box.lower, box.upper
     if step is None:
         return lo + (hi - lo) * gen.random((int(n), 3))
@@ -109,6 +109,16 @@ def random_cloud(
         values = lattice_values(lo[axis], hi[axis], step)
         columns.append(values[gen.integers(0, values.size, size=int(n))])
     return np.column_stack(columns)
+
+
+def make_rng(rng: RNGLike) -> np.random.Generator:
+    """``np.random.default_rng(rng)``, with an InputError naming a bad seed."""
+    if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool) and rng < 0:
+        raise InputError(f"a seed must be a non-negative integer, got {rng}")
+    try:
+        return np.random.default_rng(rng)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"not a seed or random generator: {rng!r} ({exc})") from exc
 
 
 def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
@@ -129,6 +139,5 @@ def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
         raise InputError(f"{name} is empty: need at least 3 points")
     bad = np.flatnonzero(~np.isfinite(arr).all(axis=1))
     if bad.size:
-        shown = ", ".join(str(i) for i in bad[:10]) + (", ..." if bad.size > 10 else "")
-        raise InputError(f"{name} has NaN or infinite coordinates in {bad.size} row(s): {shown}")
+        raise InputError(f"{name} has NaN or infinite coordinates in {bad.size} row(s): {shown(bad)}")
     return arr

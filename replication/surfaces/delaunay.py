@@ -19,7 +19,7 @@ from typing import Literal
 
 import numpy as np
 
-from replication.errors import DegenerateInputError, InputError
+from replication.errors import DegenerateInputError, InputError, shown
 from replication.surfaces import _sweephull
 
 __all__ = ["BACKENDS", "Backend", "delaunay_2d", "signed_areas"]
@@ -51,10 +51,9 @@ def _scipy(uv: np.ndarray) -> np.ndarray:
 
 
 def _unused_points_error(unused: np.ndarray, backend: str) -> DegenerateInputError:
-    shown = ", ".join(str(i) for i in unused[:10]) + (", ..." if unused.size > 10 else "")
     return DegenerateInputError(
         f"{unused.size} distinct projected point(s) could not be triangulated by {backend} "
-        f"(points {shown}): they lie within floating-point precision of another point; "
+        f"(points {shown(unused)}): they lie within floating-point precision of another point; "
         "round the coordinates or remove them"
     )
 

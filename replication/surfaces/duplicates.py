@@ -15,7 +15,7 @@ from typing import Literal
 import numpy as np
 from numba import njit
 
-from replication.errors import DuplicatePointsWarning, InputError
+from replication.errors import DuplicatePointsWarning, InputError, shown
 
 __all__ = ["DUPLICATE_POLICIES", "DuplicatePolicy", "Merge", "group_positions", "merge_duplicates"]
 
@@ -151,10 +151,9 @@ def merge_duplicates(
     un, vn, dn = axis_names
     if policy == "raise":
         shared = np.flatnonzero(counts[group] > 1)
-        shown = ", ".join(str(i) for i in shared[:10]) + (", ..." if shared.size > 10 else "")
         raise InputError(
             f"{shared.size} points share a projected ({un}, {vn}) position with another point "
-            f"(rows {shown}); choose a duplicate policy other than 'raise' to merge them"
+            f"(rows {shown(shared)}); choose a duplicate policy other than 'raise' to merge them"
         )
     depth = np.asarray(depth, dtype=np.float64)
     if policy == "mean":

@@ -47,6 +47,7 @@ from numpy.typing import ArrayLike
 
 from replication.errors import DegenerateInputError, InputError
 from replication.surfaces.adt import AXES, DEFAULT_TIE_RTOL, Surface, adt
+from replication.surfaces.cloud import as_cloud
 from replication.surfaces.delaunay import Backend
 from replication.surfaces.duplicates import DuplicatePolicy
 from replication.surfaces.interpolate import interpolate_linear
@@ -209,15 +210,15 @@ class NurbsPatch:
         if not np.all(np.isfinite(self.control_points)):
             raise InputError("control points must be finite")
         m_u, m_v = self.control_points.shape[:2]
-        if self.weights.shape != (m_u, m_v) or np.any(self.weights <= 0):
+        if self.weights.shape != (m_u, m_v) or not np.all(np.isfinite(self.weights) & (self.weights > 0)):
             raise InputError(f"weights must be positive with shape {(m_u, m_v)}, got {self.weights.shape}")
         for name, knots, m, p in (
             ("u", self.knots_u, m_u, self.degree_u),
             ("v", self.knots_v, m_v, self.degree_v),
         ):
-            if knots.shape != (m + p + 1,) or np.any(np.diff(knots) < 0):
+            if knots.shape != (m + p + 1,) or not np.all(np.isfinite(knots)) or np.any(np.diff(knots) < 0):
                 raise InputError(
-                    f"knot vector {name} must be non-decreasing with {m + p + 1} entries, "
+                    f"knot vector {name} must be finite and non-decreasing with {m + p + 1} entries, "
                     f"got {knots.tolist()}"
                 )
 
@@ -339,7 +340,8 @@ def fit_nurbs(
     evaluator : {"geomdl", "fast"}
         Evaluate the tessellation with geomdl (reference) or with scipy's ``NdBSpline``.
     triangulation : Surface, optional
-        The cloud's ADT surface, if already built (its frame is used).
+        The cloud's ADT surface, if already built: its frame and duplicate policy are used
+        (``depth``, ``duplicates``, ``backend`` and ``tie_rtol`` are then ignored).
 
     Returns
     -------
@@ -359,9 +361,13 @@ def fit_nurbs(
     _check_degree(degree)
     if evaluator not in ("geomdl", "fast"):
         raise InputError(f"evaluator must be 'geomdl' or 'fast', got {evaluator!r}")
-    surface = triangulation or adt(
-        points, depth=depth, duplicates=duplicates, backend=backend, tie_rtol=tie_rtol
-    )
+    if triangulation is None:
+        surface = adt(points, depth=depth, duplicates=duplicates, backend=backend, tie_rtol=tie_rtol)
+    else:  # the triangulation fixes the frame and duplicate policy: it must be this cloud's
+        n = as_cloud(points).shape[0]
+        if triangulation.n_input != n:
+            raise InputError(f"the triangulation is of {triangulation.n_input} points, the cloud has {n}")
+        surface = triangulation
     uv = surface.projected()
     extent = np.ptp(uv, axis=0)
     if np.any(extent <= 0):
