@@ -39,3 +39,13 @@ def quick_reports(tmp_path_factory):
     finally:
         os.chdir(previous)
     return out
+
+
+@pytest.fixture
+def restore_global_rng():
+    """Tests that set numpy's legacy global seed (to prove it does not matter) restore it."""
+    import numpy as np
+
+    state = np.random.get_state()
+    yield
+    np.random.set_state(state)

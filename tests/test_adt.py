@@ -192,7 +192,7 @@ def test_backends_agree_on_the_same_cloud():
     }
 
 
-def test_deterministic_and_independent_of_global_random_state():
+def test_deterministic_and_independent_of_global_random_state(restore_global_rng):
     cloud = np.random.default_rng(10).random((100, 3))
     np.random.seed(1)
     a = adt(cloud)

@@ -85,3 +85,12 @@ def test_casestudy_help(capsys):
     out = capsys.readouterr().out
     for phrase in ("--resume", "--scheduler", "--workers", "checkpointed"):
         assert phrase in out
+
+
+def test_resume_needs_a_run_directory_with_checkpoints(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["casestudy", *TINY, "--resume"]) == 1
+    assert "name the directory to resume" in capsys.readouterr().err
+    (tmp_path / "empty").mkdir()
+    assert main(["casestudy", *TINY, "--resume", "--run-dir", "empty"]) == 1
+    assert "nothing to resume" in capsys.readouterr().err

@@ -81,3 +81,8 @@ def test_table1_claims_negative_case():
     verdicts = table1_claims(mc, timings, ns)["verdict"].tolist()
     assert verdicts.count("holds") == 2  # only the two "difference grows" claims
     assert "does not hold" in verdicts
+
+
+def test_combine_of_nothing_comparable():
+    assert combine(["cannot be compared"] * 3) == "cannot be compared"
+    assert combine(["cannot be compared", "holds"]) == "holds"

@@ -1,6 +1,7 @@
 """The ``replication`` command line: contract, errors, JSON, determinism."""
 
 import json
+import os
 import subprocess
 import sys
 
@@ -262,3 +263,35 @@ def test_bad_net_argument(bad):
     with pytest.raises(SystemExit) as exc:
         main(["compare", "x.csv", "--net", bad])
     assert exc.value.code == 2
+
+
+# ---- found in review ------------------------------------------------------------------------
+
+
+def test_negative_seed_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["adt", "--random", "10", "--seed", "-1"])
+    assert exc.value.code == 2 and "non-negative" in capsys.readouterr().err
+
+
+def test_split_refuses_a_depth_rule(capsys, tmp_path):
+    save_cloud(np.random.default_rng(0).random((30, 3)) - 0.5, tmp_path / "c.csv")
+    code, _, err = run(capsys, "adt", str(tmp_path / "c.csv"), "--split", "z=0", "--depth", "x")
+    assert code == 1 and "--depth x does not apply with --split" in err
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs /proc")
+def test_unwritable_output_is_a_one_line_error(capsys):
+    code, _, err = run(capsys, "adt", "--random", "10", "--seed", "1", "-o", "/proc/x.vtk")
+    assert (
+        code == 1
+        and err.startswith("replication adt: error: cannot write /proc/x.vtk")
+        and err.count("\n") == 1
+    )
+
+
+def test_json_output_is_strict_even_for_numpy_nan(capsys):
+    from replication.cli.common import emit_json
+
+    emit_json({"a": np.float64("nan"), "b": np.float32("inf"), "c": [np.int64(3)], "d": float("nan")})
+    assert json.loads(capsys.readouterr().out) == {"a": None, "b": "inf", "c": [3], "d": None}

@@ -32,7 +32,7 @@ def test_lattice_values_include_the_upper_bound():
     np.testing.assert_array_equal(lattice_values(2.0, 2.0, 1.0), [2.0])
 
 
-def test_seeded_clouds_are_reproducible_and_ignore_global_state():
+def test_seeded_clouds_are_reproducible_and_ignore_global_state(restore_global_rng):
     np.random.seed(0)
     a = random_cloud(50, rng=42)
     np.random.seed(1)
@@ -66,3 +66,9 @@ def test_bad_boxes():
         Box(0, np.inf, 0, 1, 0, 1)
     with pytest.raises(InputError, match="6 bounds"):
         Box.from_bounds([0, 1, 0, 1])
+
+
+@pytest.mark.parametrize("rng", [-1, "seed", 1.5])
+def test_bad_seeds_are_input_errors(rng):
+    with pytest.raises(InputError, match="seed"):
+        random_cloud(5, rng=rng)

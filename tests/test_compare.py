@@ -93,3 +93,11 @@ def test_seeded_comparison_is_deterministic():
     for name in a.pairings:
         np.testing.assert_array_equal(a.pairings[name].differences, b.pairings[name].differences)
         assert a.statistics[name] == b.statistics[name]
+
+
+def test_flat_cloud_is_a_clear_error():
+    from replication.casestudy.shapes import flat_plate_cloud
+    from replication.errors import DegenerateInputError
+
+    with pytest.raises(DegenerateInputError, match="flat along its depth axis z"):
+        compare(flat_plate_cloud())

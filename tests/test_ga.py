@@ -149,7 +149,7 @@ def test_config_validation(kwargs, match):
 # ---- runs -----------------------------------------------------------------------------------
 
 
-def test_run_is_deterministic_and_independent_of_global_state(tmp_path):
+def test_run_is_deterministic_and_independent_of_global_state(tmp_path, restore_global_rng):
     np.random.seed(0)
     a = run_ga(SMALL, 0, run_dir=tmp_path / "a", pool_factory=serial)
     np.random.seed(99)
@@ -234,12 +234,6 @@ def test_failed_evaluations_are_recorded_and_get_the_worst_fitness(tmp_path):
     assert sum(h["failures"] for h in run.history) == len(run.failures)
 
 
-def test_degenerate_genome_is_a_recorded_failure_not_a_crash():
-    genome = np.zeros(303, dtype=np.int64)  # every point at the origin
-    with pytest.raises(InputError):
-        Fitness(SMALL)(genome)
-
-
 @pytest.mark.slow
 def test_process_pool_gives_identical_results(tmp_path):
     a = run_ga(SMALL, 0, run_dir=tmp_path / "serial", pool_factory=serial)
@@ -309,3 +303,37 @@ def test_dask_worker_dying_mid_run_changes_nothing(tmp_path, dask_pickling):
     assert died.exists()  # a worker really died during generation 2
     _same_run(reference, survived)
     assert survived.failures == []
+
+
+class DegenerateExceptSeeds:
+    """The real fitness, but every random individual is evaluated as all points at one spot."""
+
+    def __init__(self, config):
+        self.inner = Fitness(config)
+        self.seeds = {tuple(g) for g in initial_population(config, rng=np.random.default_rng(0))[:2]}
+
+    def __call__(self, genome):
+        if tuple(genome) in self.seeds:
+            return self.inner(genome)
+        return self.inner(np.zeros_like(genome))  # ADT raises: fewer than 3 distinct points
+
+
+def test_degenerate_genome_is_a_recorded_failure_not_a_crash(tmp_path):
+    config = GAConfig(population=6, generations=1, elites=1, seed=3)
+    run = run_ga(config, 0, run_dir=tmp_path, pool_factory=serial, fitness=DegenerateExceptSeeds(config))
+    assert len(run.failures) == 4 and all("DegenerateInputError" in f["error"] for f in run.failures)
+    assert np.isfinite(run.fitness[:2]).all() and np.all(run.fitness[2:] == -math.inf)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"points": 50}, "cannot hold them"),
+        ({"box": (0, 40, 0, 30, 0, 13)}, "inside the jet domain"),
+        ({"seed": -1}, "non-negative"),
+        ({"elites": 1.5}, "elites must be an integer"),
+    ],
+)
+def test_config_refuses_settings_that_cannot_run(kwargs, match):
+    with pytest.raises(InputError, match=match):
+        GAConfig(**kwargs)

@@ -223,3 +223,36 @@ def test_read_surface_missing_and_garbage(tmp_path):
     (tmp_path / "bad.vtp").write_text("this is not xml")
     with pytest.raises(CloudFileError):
         read_surface(tmp_path / "bad.vtp")
+
+
+# ---- found in review ------------------------------------------------------------------------
+
+
+def test_byte_order_mark_is_not_data(tmp_path):
+    """Excel's 'CSV UTF-8' starts with a BOM; the first row must not be taken for a header."""
+    (tmp_path / "bom.csv").write_bytes(b"\xef\xbb\xbf0,0,0\n1,0,0\n0,1,0\n1,1,1\n")
+    assert load_cloud(tmp_path / "bom.csv").shape == (4, 3)
+    (tmp_path / "bomh.csv").write_bytes(b"\xef\xbb\xbfx,y,z\n0,0,0\n1,0,0\n0,1,0\n")
+    assert load_cloud(tmp_path / "bomh.csv").shape == (3, 3)
+
+
+def test_malformed_first_line_is_an_error_not_a_header(tmp_path):
+    (tmp_path / "c.csv").write_text("1,2,x\n0,0,0\n1,0,0\n0,1,1\n")
+    with pytest.raises(CloudFileError, match=r"line 1, column 3: 'x' is not a number"):
+        load_cloud(tmp_path / "c.csv")
+
+
+@pytest.mark.skipif(
+    not Path("/proc/self").is_dir(), reason="needs /proc (an unwritable directory even for root)"
+)
+def test_unwritable_directory_is_an_output_error(surface):
+    with pytest.raises(OutputError, match="cannot write /proc/x.vtk"):
+        write_vtk(surface, "/proc/x.vtk")
+
+
+def test_replacing_a_file_keeps_its_permissions(surface, tmp_path):
+    target = tmp_path / "s.vtk"
+    target.write_text("old")
+    target.chmod(0o600)
+    write_vtk(surface, target)
+    assert target.stat().st_mode & 0o777 == 0o600

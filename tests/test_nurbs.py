@@ -210,3 +210,20 @@ def test_fit_is_deterministic():
     a, b = fit_nurbs(cloud), fit_nurbs(cloud)
     np.testing.assert_array_equal(a.patch.control_points, b.patch.control_points)
     np.testing.assert_array_equal(a.tessellation, b.tessellation)
+
+
+def test_non_finite_weights_and_knots_are_refused():
+    k = clamped_uniform_knots(3, 2)
+    pts = np.zeros((3, 3, 3))
+    with pytest.raises(InputError, match="weights"):
+        NurbsPatch(2, 2, k, k, pts, np.full((3, 3), np.nan))
+    with pytest.raises(InputError, match="knot vector v must be finite"):
+        NurbsPatch(2, 2, k, np.r_[k[:-1], np.nan], pts, np.ones((3, 3)))
+
+
+def test_triangulation_must_belong_to_the_cloud():
+    from replication.surfaces import adt
+
+    a, b = random_cloud(50, rng=1), random_cloud(60, rng=2)
+    with pytest.raises(InputError, match="triangulation is of 50 points, the cloud has 60"):
+        fit_nurbs(b, triangulation=adt(a))

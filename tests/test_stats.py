@@ -36,7 +36,7 @@ def test_agrees_with_direct_scipy_calls(samples):
     ci = stats.ttest_rel(a, b).confidence_interval(0.95)
     np.testing.assert_allclose(st.ci95, (ci.low, ci.high), rtol=1e-12)
     ci90 = stats.ttest_rel(a, b).confidence_interval(0.90)
-    np.testing.assert_allclose(st.ci90, (ci90.low, ci90.high), rtol=1e-12)
+    np.testing.assert_allclose(st.tost_ci, (ci90.low, ci90.high), rtol=1e-12)
 
 
 def test_tost_matches_two_one_sided_scipy_tests(samples):
@@ -48,7 +48,7 @@ def test_tost_matches_two_one_sided_scipy_tests(samples):
     assert st.margin == pytest.approx(0.5)
     assert st.tost_p == pytest.approx(max(p1, p2), rel=1e-12)
     # TOST at alpha <=> the 90% CI lies within the margin
-    assert st.equivalent == (-0.5 < st.ci90[0] and st.ci90[1] < 0.5)
+    assert st.equivalent == (-0.5 < st.tost_ci[0] and st.tost_ci[1] < 0.5)
 
 
 def test_tost_declares_identical_surfaces_with_noise_equivalent():
@@ -124,3 +124,27 @@ def test_bad_arguments(kwargs, match):
     args = {"a": [1.0, 2.0, 3.5, 4.0], "b": [1.1, 2.0, 3.0, 4.2], "depth_range": 3.0} | kwargs
     with pytest.raises(InputError, match=match):
         paired_statistics(args.pop("a"), args.pop("b"), **args)
+
+
+def test_ci95_is_always_95_percent_and_tost_ci_follows_alpha(samples):
+    a, b = samples
+    default = paired_statistics(a, b, depth_range=10.0)
+    loose = paired_statistics(a, b, depth_range=10.0, alpha=0.2)
+    np.testing.assert_allclose(loose.ci95, default.ci95, rtol=1e-12)
+    ci60 = stats.ttest_rel(a, b).confidence_interval(0.6)  # TOST at alpha 0.2 <=> 60 % interval
+    np.testing.assert_allclose(loose.tost_ci, (ci60.low, ci60.high), rtol=1e-12)
+
+
+def test_constant_offset_with_rounding_noise_is_constant():
+    a = np.linspace(0.1, 0.9, 20)
+    b = a - 0.3  # a - b is 0.3 up to an ulp or two
+    st = paired_statistics(a, b, depth_range=1.0)
+    assert st.sd_difference == 0.0 and np.isinf(st.cohens_dz) and not st.equivalent
+
+
+def test_as_dict_is_strict_json():
+    import json
+
+    st = paired_statistics(np.arange(10.0), np.arange(10.0), depth_range=9.0)  # NaN normality p
+    json.dumps(st.as_dict(), allow_nan=False)
+    assert st.as_dict()["normality_p"] is None
