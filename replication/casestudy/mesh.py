@@ -7,15 +7,11 @@ into an :class:`~replication.errors.InputError` naming the offending vertex or t
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from replication.casestudy import _sheet
+from replication.casestudy.jetconfig import JetConfig
 from replication.errors import InputError
-
-if TYPE_CHECKING:  # pragma: no cover
-    from replication.casestudy.jet import JetConfig
 
 __all__ = ["MM", "check_domain", "check_height_field", "weld"]
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from replication.errors import InputError
-from replication.surfaces.nurbs import NurbsPatch
+from replication.surfaces.patch import NurbsPatch
 
 __all__ = ["Inversion", "evaluate", "evaluate_grid", "invert", "parameter_grid"]
 

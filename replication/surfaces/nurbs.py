@@ -39,22 +39,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cached_property
-from typing import TYPE_CHECKING, Literal
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from replication.errors import DegenerateInputError, InputError
 from replication.surfaces.adt import AXES, DEFAULT_TIE_RTOL, Surface, adt
+from replication.surfaces.bspline import evaluate_grid
 from replication.surfaces.cloud import as_cloud
 from replication.surfaces.delaunay import Backend
 from replication.surfaces.duplicates import DuplicatePolicy
 from replication.surfaces.interpolate import interpolate_linear
-
-if TYPE_CHECKING:  # pragma: no cover
-    from geomdl.NURBS import Surface as GeomdlSurface
-    from scipy.interpolate import NdBSpline
+from replication.surfaces.patch import NurbsPatch  # re-exported: nurbs.NurbsPatch keeps working
 
 __all__ = [
     "DEFAULT_TESSELLATION",
@@ -181,80 +178,6 @@ def grid_depths(surface: Surface, shape: tuple[int, int]) -> Grid:
         _, nearest = cKDTree(uv).query(nodes[outside])
         values[outside] = depth[nearest]
     return Grid(u=u, v=v, depth=values.reshape(shape), filled=outside.reshape(shape))
-
-
-@dataclass(frozen=True, eq=False)
-class NurbsPatch:
-    """A tensor-product NURBS surface: everything a NURBS needs, and nothing else.
-
-    ``control_points[i, j]`` is the point for the i-th u and j-th v basis function (geomdl's
-    ``ctrlpts2d`` order); ``weights`` has the same (m_u, m_v) shape.
-    """
-
-    degree_u: int
-    degree_v: int
-    knots_u: np.ndarray
-    knots_v: np.ndarray
-    control_points: np.ndarray
-    weights: np.ndarray
-
-    def __post_init__(self) -> None:
-        for a in ("knots_u", "knots_v", "control_points", "weights"):
-            arr = np.array(getattr(self, a), dtype=np.float64)
-            arr.flags.writeable = False
-            object.__setattr__(self, a, arr)
-        object.__setattr__(self, "degree_u", int(self.degree_u))
-        object.__setattr__(self, "degree_v", int(self.degree_v))
-        if self.control_points.ndim != 3 or self.control_points.shape[2] != 3:
-            raise InputError(f"control points must have shape (m_u, m_v, 3), got {self.control_points.shape}")
-        if not np.all(np.isfinite(self.control_points)):
-            raise InputError("control points must be finite")
-        m_u, m_v = self.control_points.shape[:2]
-        if self.weights.shape != (m_u, m_v) or not np.all(np.isfinite(self.weights) & (self.weights > 0)):
-            raise InputError(f"weights must be positive with shape {(m_u, m_v)}, got {self.weights.shape}")
-        for name, knots, m, p in (
-            ("u", self.knots_u, m_u, self.degree_u),
-            ("v", self.knots_v, m_v, self.degree_v),
-        ):
-            if knots.shape != (m + p + 1,) or not np.all(np.isfinite(knots)) or np.any(np.diff(knots) < 0):
-                raise InputError(
-                    f"knot vector {name} must be finite and non-decreasing with {m + p + 1} entries, "
-                    f"got {knots.tolist()}"
-                )
-
-    @property
-    def net_shape(self) -> tuple[int, int]:
-        return (int(self.control_points.shape[0]), int(self.control_points.shape[1]))
-
-    @property
-    def rational(self) -> bool:
-        """False when every weight is 1 (the paper's case: a B-spline in NURBS clothing)."""
-        return bool(np.any(self.weights != 1.0))
-
-    def to_geomdl(self) -> GeomdlSurface:
-        """The same surface as a geomdl ``NURBS.Surface`` (the paper-faithful reference)."""
-        from geomdl import NURBS
-
-        surf = NURBS.Surface()
-        surf.degree_u = self.degree_u
-        surf.degree_v = self.degree_v
-        m_u, m_v = self.net_shape
-        surf.ctrlpts_size_u = m_u
-        surf.ctrlpts_size_v = m_v
-        surf.ctrlpts = self.control_points.reshape(-1, 3).tolist()
-        surf.weights = self.weights.ravel().tolist()
-        surf.knotvector_u = self.knots_u.tolist()
-        surf.knotvector_v = self.knots_v.tolist()
-        return surf
-
-    @cached_property
-    def spline(self) -> NdBSpline:
-        """scipy ``NdBSpline`` of the homogeneous control points (w x, w y, w z, w)."""
-        from scipy.interpolate import NdBSpline
-
-        w = self.weights[..., None]
-        coefficients = np.concatenate([self.control_points * w, w], axis=-1)
-        return NdBSpline((self.knots_u, self.knots_v), coefficients, (self.degree_u, self.degree_v))
 
 
 @dataclass(frozen=True, eq=False)
@@ -405,8 +328,6 @@ def fit_nurbs(
             geo.sample_size_v = s_v
             evaluated = np.asarray(geo.evalpts, dtype=np.float64).reshape(s_u, s_v, 3)
         else:
-            from replication.surfaces.bspline import evaluate_grid
-
             evaluated = evaluate_grid(patch, (s_u, s_v))
     return NurbsSurface(
         patch=patch,
