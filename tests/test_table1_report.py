@@ -121,3 +121,38 @@ def test_figures_are_byte_identical_when_re_rendered(quick_reports, tmp_path):
     first = [p.read_bytes() for p in fig6(mc, tmp_path / "a")]
     second = [p.read_bytes() for p in fig6(mc, tmp_path / "a")]
     assert first == second
+
+
+def test_storage_table_equals_csv(quick_reports):
+    from replication.experiments.storage import FAMILIES
+
+    family_key = {text: key for key, text in FAMILIES}
+    tables = parse_tables((quick_reports / "table1.md").read_text())
+    shown = find(tables, "family", "equal precision", "ADT / NURBS, n = 200")
+    storage = pd.read_csv(quick_reports / "data/table1_storage.csv").set_index(["family", "coordinates", "n"])
+    claims = pd.read_csv(quick_reports / "data/table1_claims.csv")
+    assert len(shown) == 8  # four families, two kinds of coordinates
+    for _, row in shown.iterrows():
+        for n in sorted(storage.index.get_level_values("n").unique()):
+            data = storage.loc[(family_key[row["family"]], row["coordinates"], n)]
+            got = triple(row[f"ADT / NURBS, n = {n}"])
+            want = data[["ratio", "ratio_q1", "ratio_q3"]].to_numpy(float)
+            assert np.allclose(got, want, atol=0.005), (row["family"], n)
+        claim = claims[claims["claim"].str.contains(row["family"], regex=False)
+                       & claims["claim"].str.contains(row["coordinates"], regex=False)]  # fmt: skip
+        assert row["verdict"].strip("*") == claim["verdict"].iloc[0]
+
+
+def test_headline_states_the_storage_verdict(quick_reports):
+    from replication.experiments.table1_claims import STORAGE_HEADLINE
+
+    claims = pd.read_csv(quick_reports / "data/table1_claims.csv")
+    storage = claims[claims["claim"].str.startswith(STORAGE_HEADLINE)].iloc[0]
+    line = next(
+        s for s in (quick_reports / "index.md").read_text().splitlines() if s.startswith("- **Storage**")
+    )
+    assert f"**{storage['verdict']}** at equal precision" in line
+    for family in ("6 significant digits", "float32 binary", "information floor", "lattice / continuous"):
+        assert family in line
+    text = (quick_reports / "table1.md").read_text()
+    assert "What the paper's 9-point files suggest" in text and "characters per coordinate" in text

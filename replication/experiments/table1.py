@@ -10,12 +10,17 @@ experiment:
   counted;
 * measures the size of each surface file in the headline formats (compact legacy VTK for ADT,
   compact smesh for NURBS: the most compact complete ASCII representations) and in the
-  alternatives (binary VTP, geomdl's own smesh and JSON, raw float32 numbers as the floor);
+  alternatives (6 significant digits, binary VTP, geomdl's own smesh and JSON, raw float32
+  binary, the information floor);
 * times the builds (ADT: steps 4-10; NURBS: gridding, control net, knots and evaluation on a
   50 x 50 tessellation, with geomdl and with the fast evaluator) and build + write, interleaved
   in one process (:mod:`.timing`), with per-repeat NURBS/ADT ratios;
 * runs the paired statistics of :mod:`replication.compare` on the same clouds;
-* repeats the size, time and statistics measurements over many seeds per n (Monte Carlo);
+* repeats the size, time and statistics measurements over many seeds per n (Monte Carlo),
+  the clouds of all n interleaved so that a slow drift of the machine does not look like a
+  trend with n;
+* measures the storage of both surfaces of every Monte Carlo cloud in four representation
+  families, for lattice clouds and for continuous clouds in the same box (:mod:`.storage`);
 * sweeps n from 1e3 to 1e6 (continuous clouds, so that points stay distinct) and fits growth
   exponents.
 
@@ -38,7 +43,8 @@ import pandas as pd
 
 from replication.compare import compare
 from replication.errors import DuplicatePointsWarning, InputError
-from replication.experiments.claims import table1_claims
+from replication.experiments.storage import storage_monte_carlo, storage_row, summarize_storage
+from replication.experiments.table1_claims import table1_claims
 from replication.experiments.timing import interleaved, ratio_per_repeat, summarize
 from replication.io.nurbs import smesh_text, write_nurbs
 from replication.io.vtk import legacy_vtk_text, write_vtk, write_vtp
@@ -46,11 +52,13 @@ from replication.provenance import provenance
 from replication.surfaces import Box, adt, random_cloud
 from replication.surfaces.nurbs import NurbsSurface, fit_nurbs
 
-__all__ = ["Table1Config", "Table1Results", "run_table1", "table1_cloud", "file_sizes"]
+__all__ = ["Table1Config", "Table1Results", "run_table1", "table1_cloud", "continuous_cloud", "file_sizes"]
 
 Progress = Callable[[Iterable[Any], str, int], Iterable[Any]]
 #: Third seed word of the scale-sweep clouds (continuous, so that points stay distinct).
 SCALE_STREAM = 10**9
+#: Fourth seed word of the continuous clouds of the storage comparison.
+CONTINUOUS_STREAM = 1
 
 
 def _no_progress(items: Iterable[Any], description: str, total: int) -> Iterable[Any]:
@@ -116,35 +124,47 @@ def table1_cloud(config: Table1Config, n: int, replicate: int = 0) -> np.ndarray
     return random_cloud(n, Box.from_bounds(config.box), step=config.step, rng=rng)
 
 
+def continuous_cloud(config: Table1Config, n: int, replicate: int) -> np.ndarray:
+    """A cloud of n points in the same box, not on a lattice (the storage comparison's second kind)."""
+    rng = np.random.default_rng([config.seed, n, replicate, CONTINUOUS_STREAM])
+    return random_cloud(n, Box.from_bounds(config.box), step=None, rng=rng)
+
+
 def file_sizes(surface: Any, nurbs: NurbsSurface, workdir: Path) -> list[dict[str, Any]]:
-    """Bytes of each surface in every format (headline formats flagged)."""
+    """Bytes of each surface in every format (headline formats flagged).
+
+    The raw binary and information-floor rows follow the families of :mod:`.storage`.
+    """
     from geomdl import exchange
 
-    m_u, m_v = nurbs.patch.net_shape
     vtp = write_vtp(surface, workdir / "adt.vtp")
     geo = nurbs.patch.to_geomdl()
     exchange.export_smesh(geo, str(workdir / "geomdl.smesh"))
     exchange.export_json(geo, str(workdir / "geomdl.json"))
+    family = storage_row(surface.points, surface.triangles, nurbs.patch)
     return [
         {"method": "ADT", "format": "legacy VTK, compact ASCII", "headline": True,
-         "bytes": len(legacy_vtk_text(surface.points, surface.triangles).encode())},
+         "bytes": family["ascii_exact_adt"]},
         {"method": "ADT", "format": "legacy VTK, 6 significant digits", "headline": False,
-         "bytes": len(legacy_vtk_text(surface.points, surface.triangles, digits=6).encode())},
-        {"method": "ADT", "format": "VTK XML binary (.vtp)", "headline": False, "bytes": vtp},
-        {"method": "ADT", "format": "float32 points + int32 triangles", "headline": False,
-         "bytes": 4 * (3 * surface.n_vertices + 3 * surface.n_triangles)},
-        {"method": "ADT", "format": "float32 points only (triangles recomputable)", "headline": False,
-         "bytes": 12 * surface.n_vertices},
+         "bytes": family["ascii_6_adt"]},
+        {"method": "ADT", "format": "VTK XML binary (.vtp: float64 points, int64 connectivity)",
+         "headline": False, "bytes": vtp},
+        {"method": "ADT", "format": "raw binary: float32 points + int32 triangles", "headline": False,
+         "bytes": family["binary32_adt"]},
+        {"method": "ADT", "format": "information floor: float32 points (triangles recomputable)",
+         "headline": False, "bytes": family["floor_adt"]},
         {"method": "NURBS", "format": "smesh, compact ASCII", "headline": True,
-         "bytes": len(smesh_text(nurbs.patch).encode())},
+         "bytes": family["ascii_exact_nurbs"]},
         {"method": "NURBS", "format": "smesh, 6 significant digits", "headline": False,
-         "bytes": len(smesh_text(nurbs.patch, digits=6).encode())},
+         "bytes": family["ascii_6_nurbs"]},
         {"method": "NURBS", "format": "smesh, geomdl's writer (18 decimals)", "headline": False,
          "bytes": (workdir / "geomdl.smesh").stat().st_size},
         {"method": "NURBS", "format": "JSON, geomdl's writer", "headline": False,
          "bytes": (workdir / "geomdl.json").stat().st_size},
-        {"method": "NURBS", "format": "float32 control points only (knots, weights recomputable)",
-         "headline": False, "bytes": 12 * m_u * m_v},
+        {"method": "NURBS", "format": "raw binary: float32 knots + control points with weights",
+         "headline": False, "bytes": family["binary32_nurbs"]},
+        {"method": "NURBS", "format": "information floor: float32 control points + knots (weights 1)",
+         "headline": False, "bytes": family["floor_nurbs"]},
     ]  # fmt: skip
 
 
@@ -215,6 +235,8 @@ class Table1Results:
     scale_raw: pd.DataFrame  # n, method, repeat, seconds, bytes
     scale: pd.DataFrame  # n, method, median, q1, q3
     growth: pd.DataFrame  # method, exponent, stderr, n_min, n_max
+    storage_raw: pd.DataFrame  # n, replicate, coordinates, counts, bytes per family and method
+    storage: pd.DataFrame  # n, coordinates, family, median bytes, ratio ADT/NURBS with quartiles
     claims: pd.DataFrame  # the paper's claims beside ours, with verdicts
     provenance: dict[str, Any] = field(default_factory=dict)
     meshes: dict[int, tuple[Any, NurbsSurface]] = field(default_factory=dict)
@@ -273,7 +295,8 @@ def _monte_carlo(config: Table1Config, progress: Progress) -> pd.DataFrame:
     kw = {"degree": config.degree, "tessellation": config.tessellation}
     fit_nurbs(table1_cloud(config, 50, 10**6), **kw)  # warm-up: imports, JIT caches
     rows = []
-    jobs = [(n, k) for n in config.ns for k in range(1, config.mc_seeds + 1)]
+    # every n in each round of replicates: a drift of the machine's speed affects all n alike
+    jobs = [(n, k) for k in range(1, config.mc_seeds + 1) for n in config.ns]
     for n, k in progress(jobs, f"Monte Carlo over {config.mc_seeds} seeds per n", len(jobs)):
         cloud = table1_cloud(config, n, k)
         surface, adt_s = _timed(adt, cloud)
@@ -295,7 +318,7 @@ def _monte_carlo(config: Table1Config, progress: Progress) -> pd.DataFrame:
             prefix = "a_" if name == "nurbs-samples" else "b_"
             row.update(_stat_columns(prefix, result.statistics[name], pairs))
         rows.append(row)
-    return pd.DataFrame(rows)
+    return pd.DataFrame(rows).sort_values(["n", "replicate"], ignore_index=True)
 
 
 MC_QUANTITIES = (
@@ -440,17 +463,27 @@ def run_table1(
         mc_raw = _monte_carlo(config, progress)
         stage_seconds["monte_carlo"] = time.perf_counter() - t0
         t0 = time.perf_counter()
+        kinds = {"lattice": partial(table1_cloud, config)} if config.step else {}
+        kinds["continuous"] = partial(continuous_cloud, config)
+        storage_raw = storage_monte_carlo(
+            config.ns, config.mc_seeds, kinds, degree=config.degree, progress=progress
+        )
+        stage_seconds["storage"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
         scale_raw = _scale_sweep(config, progress, workdir)
         stage_seconds["scale_sweep"] = time.perf_counter() - t0
     scale, growth = summarize_scale(scale_raw)
     montecarlo = summarize_montecarlo(mc_raw, config.alpha)
+    storage = summarize_storage(storage_raw)
     record = provenance(
         command,
         experiment="table1",
         config=config.as_dict(),
         seeds=(
             f"single-sample cloud for n: numpy default_rng([{config.seed}, n, 0]); Monte Carlo "
-            f"replicate k: default_rng([{config.seed}, n, k]), k = 1..{config.mc_seeds}; scale sweep: "
+            f"replicate k: default_rng([{config.seed}, n, k]), k = 1..{config.mc_seeds} (continuous "
+            f"clouds of the storage comparison: default_rng([{config.seed}, n, k, {CONTINUOUS_STREAM}])); "
+            "scale sweep: "
             f"continuous cloud default_rng([{config.seed}, n, {SCALE_STREAM}])"
         ),
         stage_seconds=stage_seconds,
@@ -468,7 +501,11 @@ def run_table1(
         scale_raw=scale_raw,
         scale=scale,
         growth=growth,
-        claims=table1_claims(montecarlo, single["timings"], config.ns),
+        storage_raw=storage_raw,
+        storage=storage,
+        claims=table1_claims(
+            montecarlo, single["timings"], config.ns, montecarlo_raw=mc_raw, storage=storage
+        ),
         provenance=record,
         meshes=single["meshes"],
     )

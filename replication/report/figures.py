@@ -54,10 +54,10 @@ def fig6(montecarlo: pd.DataFrame, stem: str | os.PathLike[str]) -> list[Path]:
     ):
         n, med, err = _series(montecarlo, quantity)
         ax1.errorbar(n, med, yerr=err, marker="o", capsize=3, color=color, label=f"{label}, ours")
-    ax1.plot([9], [PAPER["adt_bytes_9"]], "s", mfc="none", color="C0", ms=9, label="ADT, paper (9 points)")
-    ax1.plot(
-        [9], [PAPER["nurbs_bytes_9"]], "s", mfc="none", color="C1", ms=9, label="NURBS, paper (9 points)"
-    )
+    for key, method, color in (("adt_bytes_9", "ADT", "C0"), ("nurbs_bytes_9", "NURBS", "C1")):
+        paper = PAPER[key]
+        label = f"{method}, paper: {paper.quote} (9 points)"
+        ax1.plot([9], [paper.value], "s", mfc="none", color=color, ms=9, label=label)
     ax1.set_xlabel("number of points n")
     ax1.set_ylabel("file size [bytes]")
     ax1.set_title("(a) storage")
@@ -69,8 +69,10 @@ def fig6(montecarlo: pd.DataFrame, stem: str | os.PathLike[str]) -> list[Path]:
     ):
         n, med, err = _series(montecarlo, quantity)
         ax2.errorbar(n, med, yerr=err, marker="o", capsize=3, color=color, label=f"{label}, ours")
-    ax2.plot([9], [PAPER["adt_s_9"]], "s", mfc="none", color="C0", ms=9, label="ADT, paper (9 points)")
-    ax2.plot([9], [PAPER["nurbs_s_9"]], "s", mfc="none", color="C1", ms=9, label="NURBS, paper (9 points)")
+    for key, method, color in (("adt_s_9", "ADT", "C0"), ("nurbs_s_9", "NURBS", "C1")):
+        paper = PAPER[key]
+        label = f"{method}, paper: {paper.quote} (9 points)"
+        ax2.plot([9], [paper.value], "s", mfc="none", color=color, ms=9, label=label)
     ax2.set_yscale("log")
     ax2.set_xlabel("number of points n")
     ax2.set_ylabel("computation time [s]")

@@ -14,6 +14,8 @@ from typing import Any
 
 import pandas as pd
 
+from replication.experiments.storage import COORDINATES, EQUAL_PRECISION, FAMILIES
+from replication.experiments.table1_claims import STORAGE_HEADLINE, WHY_ABSOLUTE
 from replication.io.atomic import atomic_write_text
 from replication.io.nurbs import write_nurbs
 from replication.io.vtk import read_surface, write_vtk
@@ -35,6 +37,8 @@ TABLES = (
     "scale_raw",
     "scale",
     "growth",
+    "storage_raw",
+    "storage",
     "claims",
 )
 
@@ -166,8 +170,9 @@ def _claims_table(d: dict[str, Any]) -> str:
         if pd.notna(r["ours_q1"]):
             ours = iqr(r["ours"], r["ours_q1"], r["ours_q3"], spec)
         unit = "" if r["unit"] in ("ratio", "fraction") else f" {r['unit']}"
-        rows.append([r["claim"], fmt(r["paper"], spec) + (unit if pd.notna(r["paper"]) else ""), ours + unit,
-                     fmt(r["ratio_ours_to_paper"], spec), f"**{r['verdict']}**", r["why"]])  # fmt: skip
+        paper = str(r["paper"]) if pd.notna(r["paper"]) else "–"  # the paper's words, verbatim
+        rows.append([r["claim"], paper, ours + unit, fmt(r["ratio_ours_to_paper"], spec),
+                     f"**{r['verdict']}**", r["why"]])  # fmt: skip
     return table(rows, ["claim", "paper", "ours (median [IQR])", "ours / paper", "verdict", "why"], "lrrrll")
 
 
@@ -216,6 +221,78 @@ def _formats_table(d: dict[str, Any]) -> str:
     return table(rows, ["format"] + [f"n = {n} [bytes]" for n in ns])
 
 
+def _storage_tables(d: dict[str, Any]) -> tuple[str, str]:
+    """Ratios ADT / NURBS by family, coordinates and n (with verdicts), and bytes at the largest n."""
+    storage, claims = d["storage"], d["claims"]
+    ns = sorted(storage["n"].unique())
+    kinds = [(k, text) for k, text in COORDINATES if (storage["coordinates"] == k).any()]
+    rows, sizes = [], []
+    for family, description in FAMILIES:
+        for kind, kind_text in kinds:
+            sel = storage[(storage["family"] == family) & (storage["coordinates"] == kind)].set_index("n")
+            claim = claims[claims["claim"].str.startswith(f"ADT needs almost half the storage of NURBS: "
+                                                          f"{description}, {kind_text}")]  # fmt: skip
+            verdict = f"**{claim['verdict'].iloc[0]}**" if not claim.empty else "–"
+            equal = "yes" if family in EQUAL_PRECISION else "no"
+            rows.append([description, kind, equal]
+                        + [iqr(sel.loc[n, "ratio"], sel.loc[n, "ratio_q1"], sel.loc[n, "ratio_q3"], ".2f")
+                           for n in ns] + [verdict])  # fmt: skip
+            big = sel.loc[ns[-1]]
+            sizes.append([description, kind, fmt(big["adt_bytes"], "int"), fmt(big["nurbs_bytes"], "int"),
+                          fmt(big["vertices"], "int"), fmt(big["triangles"], "int"),
+                          fmt(big["control_points"], "int"), fmt(big["knots"], "int")])  # fmt: skip
+    header = ["family", "coordinates", "equal precision", *(f"ADT / NURBS, n = {n}" for n in ns), "verdict"]
+    ratios = table(rows, header, "lll" + "r" * len(ns) + "l")
+    header = ["family", "coordinates", f"ADT [bytes], n = {ns[-1]}", f"NURBS [bytes], n = {ns[-1]}",
+              "ADT vertices", "ADT triangles", "NURBS control points", "NURBS knots"]  # fmt: skip
+    return ratios, table(sizes, header, "ll" + "r" * 6)
+
+
+def _counts_paragraph(d: dict[str, Any]) -> str:
+    """Why the families disagree, with the counts of the largest clouds."""
+    storage = d["storage"]
+    big = storage[storage["n"] == storage["n"].max()]
+    parts = []
+    for kind, _ in COORDINATES:
+        rows = big[big["coordinates"] == kind]
+        if rows.empty:
+            continue
+        r = rows.iloc[0]
+        v, t, c, k = (float(r[q]) for q in ("vertices", "triangles", "control_points", "knots"))
+        parts.append(
+            f"with {kind} coordinates at n = {int(r['n'])}, an ADT file stores {fmt(v, 'int')} vertices (3 "
+            f"numbers each) and {fmt(t, 'int')} triangles (3 indices each), {(3 * v + 3 * t) / v:.1f} "
+            f"numbers per vertex, while a NURBS file stores {fmt(c, 'int')} control points (4 numbers each "
+            f"with the weight) and {fmt(k, 'int')} knots, {(4 * c + k) / c:.1f} numbers per control point"
+        )
+    return (
+        "Why the families disagree, in counts (medians): "
+        + "; ".join(parts)
+        + ". At equal bytes per number ADT is therefore about twice as large; it is smaller only where "
+        "its numbers are much shorter than NURBS's, as integer-millimetre coordinates and small "
+        "indices are in ASCII beside the long decimals of a grid over the cloud's bounding box. "
+        "Continuous coordinates remove that advantage (compare the continuous rows)."
+    )
+
+
+def _paper_files(d: dict[str, Any]) -> str:
+    """What the paper's 9-point file sizes suggest (the readings in the claims' explanations)."""
+    claims = d["claims"].set_index("claim")
+    found = []
+    for label in ("ADT file size, 9 points", "NURBS file size, 9 points"):
+        why = str(claims["why"].get(label, ""))
+        reading = why[len(WHY_ABSOLUTE) :].lstrip("; ") if why.startswith(WHY_ABSOLUTE) else ""
+        if reading:
+            found.append(f"- {label.split(',')[0]}: {reading}.")
+    if len(found) < 2:
+        return ""
+    return (
+        "What the paper's 9-point files suggest about how they were written:\n\n" + "\n".join(found) + "\n\n"
+        "The paper's ADT numbers were short and its NURBS numbers long: its two files were not written "
+        "at equal precision."
+    )
+
+
 def _scale_tables(d: dict[str, Any]) -> tuple[str, str, str]:
     scale, growth, raw = d["scale"], d["growth"], d["scale_raw"]
     rows = [[str(r["n"]), r["method"], iqr(r["median"], r["q1"], r["q3"])] for _, r in scale.iterrows()]
@@ -259,7 +336,7 @@ def _survival(d: dict[str, Any]) -> str:
             f"{r['claim']}: **{r['verdict']}**" for _, r in claims.iterrows() if r["claim"].startswith(prefix)
         ]
 
-    parts = verdict("ADT needs about half") + verdict("ADT is about 3 times") + verdict("t-test and Wilcoxon")
+    parts = verdict(STORAGE_HEADLINE) + verdict("ADT is almost 3 times") + verdict("t-test and Wilcoxon")
     parts += verdict("equivalent within") + verdict("deviation under 5")
     return "\n".join(f"- {p}" for p in parts)
 
@@ -275,6 +352,8 @@ def render_table1(out_dir: str | os.PathLike[str]) -> Path:
     images, renderer = _images(d, out)
     mc_sizes, mc_verdicts = _mc_tables(d)
     scale_times, scale_exps, scale_files = _scale_tables(d)
+    storage_ratios, storage_sizes = _storage_tables(d)
+    storage_claim = d["claims"][d["claims"]["claim"].str.startswith(STORAGE_HEADLINE)].iloc[0]
     box = config["box"]
     lattice = f"on a {config['step']:g} mm lattice" if config["step"] else "continuous"
     quick = (
@@ -310,8 +389,10 @@ The details, the paper's numbers side by side and the reasons follow.
   convex hull take the nearest point's depth), clamped uniform knots, weights 1, evaluated on a
   {config["tessellation"][0]} x {config["tessellation"][1]} tessellation with geomdl (the
   paper-faithful reference) or with the fast NdBSpline evaluator.
-- **File sizes**: headline formats are the most compact complete ASCII representation of each
-  surface: legacy VTK for ADT, smesh for NURBS, both with shortest exact decimals.
+- **File sizes**: the headline formats of Table 1 are the most compact complete ASCII
+  representation of each surface: legacy VTK for ADT, smesh for NURBS, both with shortest exact
+  decimals. The storage claim is decided in four representation families, for these lattice
+  clouds and for continuous clouds in the same box (section "Storage" below).
 - **Times**: {config["repeats"]} repeats after {config["warmup"]} warm-up runs, all tasks interleaved
   in one process in rotating order; median [inter-quartile range]; ratios formed per repeat pair.
 - **Statistics**: depths paired (a) at NURBS samples (a parameter grid the size of the net) and (b)
@@ -347,6 +428,40 @@ harness on the Table 1 cloud.)
 
 {_claims_table(d)}
 
+## Storage: four representation families, two kinds of coordinates
+
+The paper does not say how its files were written, and a size ratio depends on the
+representation as much as on the method. Both surfaces of every Monte Carlo cloud are measured
+in four families that treat the two methods alike:
+
+- **shortest exact ASCII**: compact legacy VTK / compact smesh, every number with the shortest
+  decimal that reads back exactly (Table 1's headline formats);
+- **6 significant digits**: the same formats with every number at 6 significant digits (C's `%g`,
+  trailing zeros dropped), the same digits for both methods;
+- **float32 binary**: complete raw files, float32 numbers and int32 indices (ADT: two counts,
+  x y z per vertex, three indices per triangle; NURBS: degrees and net size, knots, x y z w per
+  control point);
+- **information floor**, float32, for a reader who knows the method: ADT stores its vertices
+  only (the triangles are recomputed, ADT being a deterministic function of the points); NURBS
+  its control net (x y z) and knots (weights are all 1). Were the knots recomputed too, NURBS
+  would lose 4 bytes per knot; were the net's x, y recomputed from its uniform grid, NURBS would
+  need only 4 bytes per control point plus 16, a third of ADT's floor.
+
+Clouds: the lattice clouds of this experiment (integer millimetres) and continuous clouds in the
+same box (points not on a lattice, as scanned clouds are), {config["mc_seeds"]} of each per n.
+ADT / NURBS file size, median [IQR] over the clouds (data: `data/table1_storage.csv`, raw:
+`data/table1_storage_raw.csv`); the verdict per row follows the rules of the claims table:
+
+{storage_ratios}
+
+**{storage_claim["claim"]}: {storage_claim["verdict"]}**, {storage_claim["why"]}.
+
+{_counts_paragraph(d)} Counts and bytes at the largest n (medians):
+
+{storage_sizes}
+
+{_paper_files(d)}
+
 ## Fig. 6
 
 ![Fig. 6: storage and computation time against n](figures/table1_fig6.png)
@@ -368,9 +483,8 @@ How often each test reaches each conclusion (clouds whose pairing had at least 3
 
 ## All file formats (Table 1 clouds)
 
-(data: `data/table1_sizes.csv`.) The float32 rows are the information floor: an ADT surface is
-determined by its points (the triangulation can be recomputed), a NURBS surface of this
-construction by its control points (degree, knots and weights follow from the rules).
+(data: `data/table1_sizes.csv`.) The raw binary and information-floor rows follow the families of
+the storage section above.
 
 {_formats_table(d)}
 
