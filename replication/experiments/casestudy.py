@@ -23,13 +23,13 @@ from replication.casestudy.ga import GAConfig, points_from_genome, random_genome
 from replication.casestudy.jet import surface_force
 from replication.casestudy.runner import ExecutorFactory, GARun, run_ga
 from replication.casestudy.shapes import (
-    PAPER_SPH_FORCES,
     flat_plate_cloud,
     flat_plate_surface,
     pelton_bucket_cloud,
     pelton_bucket_surface,
 )
 from replication.errors import DuplicatePointsWarning
+from replication.experiments.paper import PAPER_CASESTUDY
 from replication.experiments.timing import interleaved, summarize
 from replication.io.vtk import legacy_vtk_text
 from replication.provenance import provenance
@@ -37,14 +37,8 @@ from replication.surfaces import adt
 
 __all__ = ["PAPER_CASESTUDY", "CaseStudyResults", "quick_ga_config", "run_casestudy"]
 
-#: Numbers the paper states about its case study (section 6).
-PAPER_CASESTUDY = {
-    "flat_N": PAPER_SPH_FORCES["flat plate"],
-    "bucket_N": PAPER_SPH_FORCES["pelton bucket"],
-    "simulations": 2400,
-    "seconds_per_simulation": 107.53,
-    "megabytes_per_simulation": 9.60,
-}
+#: The paper's SPH force of each reference shape, verbatim (section 6).
+PAPER_SHAPES = {"flat plate": PAPER_CASESTUDY["flat_N"], "pelton bucket": PAPER_CASESTUDY["bucket_N"]}
 
 
 def quick_ga_config() -> GAConfig:
@@ -78,7 +72,7 @@ def _shapes(config: GAConfig) -> pd.DataFrame:
             "force_x_N": default.force[0], "force_y_N": default.force[1], "force_z_N": default.force[2],
             "rho_q_v_N": rho_q_v, "over_rho_q_v": default.axial_force / rho_q_v,
             "full_jet_mirrored_N": 2 * default.axial_force,
-            "paper_sph_N": PAPER_SPH_FORCES[name],
+            "paper_sph": PAPER_SHAPES[name].quote,
         })  # fmt: skip
     return pd.DataFrame(rows)
 
@@ -118,33 +112,35 @@ def _claims(
         "even the full-jet bound, so they must include something else (transient impact peaks, a "
         "different force definition or a scale error); the model here has no gravity, viscosity or splash"
     )
+    paper = {key: value.quote for key, value in PAPER_CASESTUDY.items()}  # verbatim
     return pd.DataFrame([
-        {"claim": "force on the flat plate [N]", "paper": PAPER_CASESTUDY["flat_N"],
+        {"claim": "force on the flat plate [N]", "paper": paper["flat_N"],
          "ours": float(flat["axial_N"]), "verdict": "does not hold",
          "why": "ours is exactly rho Q V of the half jet; " + why_force},
-        {"claim": "force on the Pelton bucket approximation [N]", "paper": PAPER_CASESTUDY["bucket_N"],
+        {"claim": "force on the Pelton bucket approximation [N]", "paper": paper["bucket_N"],
          "ours": float(bucket["axial_N"]), "verdict": "does not hold", "why": why_force},
-        {"claim": "the bucket takes less force than the flat plate", "paper": np.nan,
+        {"claim": "the bucket takes less force than the flat plate", "paper": None,
          "ours": float(bucket["axial_N"] - flat["axial_N"]),
          "verdict": "holds" if bucket["axial_N"] < flat["axial_N"] else "does not hold",
          "why": "ours: bucket minus flat plate (N); a cup that turns the sheet back gains up to rho Q V "
                 "over a flat plate, which the paper's SPH values contradict"},
-        {"claim": "neither the flat plate nor the bucket is the optimum", "paper": np.nan, "ours": best,
+        {"claim": "neither the flat plate nor the bucket is the optimum", "paper": None, "ours": best,
          "verdict": "holds" if best > max(flat["axial_N"], bucket["axial_N"]) + 1e-9 else "does not hold",
          "why": f"ours: best force found by the GA (N), against {flat['axial_N']:.3f} N (flat) and "
                 f"{bucket['axial_N']:.3f} N (bucket)"},
-        {"claim": "evaluations (simulations) in total", "paper": float(PAPER_CASESTUDY["simulations"]),
+        {"claim": "evaluations (simulations) in total", "paper": paper["simulations"],
          "ours": float(total_evals), "verdict": "cannot be compared",
          "why": f"{config.runs} runs x {config.population} x {config.generations} individuals; ours counts "
-                "distinct genomes only (the cache skips repeats), the paper's 2,400 appears to be per run"},
-        {"claim": "seconds per evaluation", "paper": PAPER_CASESTUDY["seconds_per_simulation"],
+                f"distinct genomes only (the cache skips repeats), the paper's {paper['simulations']} appear to "
+                "be per run"},
+        {"claim": "seconds per evaluation", "paper": paper["seconds_per_simulation"],
          "ours": per_eval, "verdict": "cannot be compared",
          "why": "SPH on a GPU against a thin-sheet model on a CPU: the model replaces the simulation, "
                 "it does not reproduce it"},
-        {"claim": "storage per evaluation [MB]", "paper": PAPER_CASESTUDY["megabytes_per_simulation"],
+        {"claim": "storage per evaluation [MB]", "paper": paper["megabytes_per_simulation"],
          "ours": float(evaluation["vtk_bytes"].median()) / 1e6, "verdict": "cannot be compared",
-         "why": "ours: the compact legacy-VTK file of one individual's ADT surface; the paper's 9.6 MB "
-                "include the SPH simulation's output"},
+         "why": "ours: the compact legacy-VTK file of one individual's ADT surface; the paper's "
+                f"{paper['megabytes_per_simulation']} include the SPH simulation's output"},
     ])  # fmt: skip
 
 

@@ -146,7 +146,7 @@ def render_casestudy(out_dir: str | os.PathLike[str]) -> Path:
     shape_rows = [
         [r["shape"], fmt(r["axial_N"], ".4g"), fmt(r["axial_4x_N"], ".4g"),
          fmt(r["refinement_change_pct"], ".2g"), fmt(r["over_rho_q_v"], ".3g"),
-         fmt(r["full_jet_mirrored_N"], ".4g"), fmt(r["paper_sph_N"], ".4g")]
+         fmt(r["full_jet_mirrored_N"], ".4g"), str(r["paper_sph"])]
         for _, r in shapes.iterrows()
     ]  # fmt: skip
     run_rows = [
@@ -160,7 +160,8 @@ def render_casestudy(out_dir: str | os.PathLike[str]) -> Path:
         for _, r in d["evaluation"].iterrows()
     ]
     claim_rows = [
-        [r["claim"], fmt(r["paper"], ".4g"), fmt(r["ours"], ".4g"), f"**{r['verdict']}**", r["why"]]
+        [r["claim"], str(r["paper"]) if pd.notna(r["paper"]) else "–", fmt(r["ours"], ".4g"),
+         f"**{r['verdict']}**", r["why"]]
         for _, r in d["claims"].iterrows()
     ]
     total = d["runs"][["evaluations", "cache_hits"]].sum()
@@ -216,7 +217,7 @@ for the {jet_part} jet. "4x" refines the streamlets and spreading directions fou
                 "change [%]",
                 "ours / (rho Q V)",
                 "full jet on the mirrored shape [N]",
-                "paper, SPH [N]",
+                "paper, SPH",
             ],
         )
     }
