@@ -160,8 +160,13 @@ def render_casestudy(out_dir: str | os.PathLike[str]) -> Path:
         for _, r in d["evaluation"].iterrows()
     ]
     claim_rows = [
-        [r["claim"], str(r["paper"]) if pd.notna(r["paper"]) else "–", fmt(r["ours"], ".4g"),
-         f"**{r['verdict']}**", r["why"]]
+        [
+            r["claim"],
+            str(r["paper"]) if pd.notna(r["paper"]) else "–",
+            fmt(r["ours"], ".4g"),
+            f"**{r['verdict']}**",
+            r["why"],
+        ]
         for _, r in d["claims"].iterrows()
     ]
     total = d["runs"][["evaluations", "cache_hits"]].sum()
