@@ -24,7 +24,8 @@ examples:
   replication adt --random 200 --seed 1 --step 1 -o surface.vtp --save-cloud cloud.csv
       a random 200-point cloud on a 1 mm lattice in the case-study box, kept in cloud.csv
   replication adt sphere.xyz --split z=0 -o closed.vtk
-      a closed surface: two halves above and below z = 0, stitched along the plane
+      a closed surface: two halves above and below z = 0, joined along their rims
+      (an oblique plane: --split 1,1,0=0.5, the plane with normal (1, 1, 0) at distance 0.5)
   replication adt cloud.csv --json
       report the depth axis, merges and triangle count as JSON, writing nothing
 
@@ -88,9 +89,11 @@ def _cmd_adt(args: argparse.Namespace) -> int:
             info: dict[str, Any] = {
                 "split": str(closed.split),
                 "closed": closed.is_closed,
+                "not_closed_reason": closed.not_closed_reason or None,
                 "points_on_plane": closed.n_on_plane,
                 "shared_vertices": closed.n_shared,
-                "depth_axis": AXES[closed.split.axis],
+                "closing_triangles": closed.n_strip,
+                "depth_axis": closed.split.depth_name,
                 "points_merged": sum(h.n_merged for h in halves),
             }
         else:
@@ -128,7 +131,11 @@ def _cmd_adt(args: argparse.Namespace) -> int:
         f"{report['vertices']} vertices, {report['triangles']} triangles"
     )
     if args.split:
-        state = "closed (watertight)" if info["closed"] else "NOT watertight: the halves' boundaries differ"
+        state = (
+            f"closed (watertight), the halves' rims joined by {info['closing_triangles']} triangles"
+            if info["closed"]
+            else f"NOT watertight: {info['not_closed_reason']}"
+        )
         print(f"split plane {info['split']}: {info['points_on_plane']} points on the plane, {state}")
     else:
         spreads = ", ".join(f"{a}={v:.4g}" for a, v in info["spreads"].items())
@@ -315,7 +322,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--split",
         metavar="AXIS=OFFSET",
-        help="closed surface: split the cloud by the plane AXIS=OFFSET (e.g. z=0) and stitch the two halves",
+        help="closed surface: split the cloud by the plane AXIS=OFFSET (e.g. z=0, or 1,1,0=0.5 for a "
+        "normal) and join the two halves' rims",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object describing what was done")
     p.set_defaults(func=_cmd_adt)
