@@ -244,3 +244,29 @@ def test_timing_trend_verdict_does_not_flip_with_noise():
 
 def test_trend_margin_is_above_the_noise_of_the_test():
     assert TREND_MARGIN >= 0.05
+
+
+def test_speed_verdict_does_not_flip_with_timing_noise():
+    """Per-repeat NURBS/ADT ratios perturbed within 1 % noise give the same verdict every time."""
+    from replication.experiments.timing import summarize
+
+    mc, _, ns, raw, storage = _synthetic(
+        size_ratio=(0.5, 0.45), time_ratio=(3.0, 2.5), similar=(1.0, 0.95), rms=(8.0, 4.0)
+    )
+    seen = {}
+    for true_ratio in (4.0, 2.2, 70.0, 1.02):
+        verdicts = set()
+        for seed in range(10):
+            rng = np.random.default_rng(seed)
+            rows = []
+            for n in ns:
+                adt = 0.001 * np.exp(0.01 * rng.standard_normal(50))
+                nurbs = 0.001 * true_ratio * np.exp(0.01 * rng.standard_normal(50))
+                for q, v in (("adt [s]", adt), ("nurbs_geomdl [s]", nurbs), ("nurbs_geomdl/adt", nurbs / adt),
+                             ("nurbs_fast/adt", nurbs / adt)):  # fmt: skip
+                    rows.append({"n": n, "quantity": q, **summarize(v)})
+            claims = table1_claims(mc, pd.DataFrame(rows), ns, montecarlo_raw=raw, storage=storage)
+            verdicts.add(_verdicts(claims)["ADT is almost 3 times faster than NURBS"])
+        assert len(verdicts) == 1, (true_ratio, verdicts)
+        seen[true_ratio] = verdicts.pop()
+    assert seen == {4.0: "holds", 2.2: "holds", 70.0: "partly holds", 1.02: "does not hold"}
