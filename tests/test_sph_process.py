@@ -183,3 +183,17 @@ def test_sph_options_need_the_sph_solver(tmp_path, capsys):
     save_cloud(flat_plate_cloud(), path)
     assert main(["force", str(path), "--particle-radius", "1"]) == 1
     assert "--particle-radius applies only with --solver sph" in capsys.readouterr().err
+
+
+def run_in_worker(run_dir, command):
+    """What an executor's worker does for the GA: start the child, wait, report its status."""
+    return run_child(run_dir, timeout=60, command=command).status
+
+
+def test_the_child_starts_from_a_daemonic_pool_worker(tmp_path, child):
+    """multiprocessing cannot start children from daemonic workers (multiprocessing.Pool, dask);
+    a subprocess can, which is why the engine runs in one."""
+    import multiprocessing
+
+    with multiprocessing.get_context("spawn").Pool(1) as pool:
+        assert pool.apply(run_in_worker, (tmp_path, child("finishes"))) == "ok"
