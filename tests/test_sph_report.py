@@ -78,6 +78,10 @@ def test_study_configuration():
     labels = [r.label for r in full.runs()]
     assert len(labels) == len(set(labels)) == 2 * (len(full.radii) + len(full.wcsph))
     assert len(quick.runs()) == 4
+    speeds = {r.sound_factor: r.settings(0.02, 4.34).speed_of_sound(4.34) for r in full.runs()}
+    assert speeds == {None: None, 10.0: pytest.approx(43.4), 20.0: pytest.approx(86.8)}
+    dfsph = full.runs()[0].settings(0.02, 4.34)
+    assert dfsph.method == "dfsph" and dfsph.duration == 0.02 and dfsph.sound_speed is None
     with pytest.raises(ValueError, match="half jet"):
         SPHStudyConfig(jet=JetConfig(full_jet=True))
 

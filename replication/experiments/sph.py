@@ -41,6 +41,13 @@ class Run:
     radius: float  # particle radius (m)
     sound_factor: float | None = None  # wcsph: c / V
 
+    def settings(self, duration: float, jet_speed: float) -> Any:
+        """The simulation's settings: the defaults with this run's solver, particles and c."""
+        from replication.casestudy.sph import SPHSettings
+
+        c = None if self.sound_factor is None else self.sound_factor * jet_speed
+        return SPHSettings(particle_radius=self.radius, duration=duration, method=self.method, sound_speed=c)
+
     @property
     def label(self) -> str:
         c = "" if self.sound_factor is None else f", c = {self.sound_factor:g} V"
@@ -94,14 +101,6 @@ class SPHStudyResults:
     shapes: pd.DataFrame  # reference shapes: thin-sheet model, SPH, the paper
     hypotheses: pd.DataFrame  # what the paper's forces can be, with verdicts
     provenance: dict[str, Any] = field(default_factory=dict)
-
-
-def _settings(run: Run, duration: float) -> Any:
-    from replication.casestudy.sph import SPHSettings
-
-    if run.method == "dfsph":
-        return SPHSettings(particle_radius=run.radius, duration=duration)
-    return SPHSettings(particle_radius=run.radius, duration=duration, method="wcsph")
 
 
 def _row(run: Run, result: Any, jet: JetConfig) -> dict[str, Any]:
@@ -204,7 +203,10 @@ def run_sph_study(
     rows, series = [], []
     for run in config.runs():
         result = score(
-            SHAPES[run.shape](), config.jet, _settings(run, config.duration), timeout=config.timeout
+            SHAPES[run.shape](),
+            config.jet,
+            run.settings(config.duration, config.jet.velocity),
+            timeout=config.timeout,
         )
         rows.append(_row(run, result, config.jet))
         for t, (fx, fy, fz) in zip(result.time, result.force):
