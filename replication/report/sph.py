@@ -11,12 +11,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
-from matplotlib.figure import Figure
 
 from replication.io.atomic import atomic_write_text
-from replication.report.figures import save_figure
 from replication.report.markdown import fmt, provenance_section, table
+from replication.report.sph_figures import convergence_figure, run_label, series_figure
 from replication.report.store import read_csv, read_json, write_csv, write_json
 
 __all__ = ["TABLES", "load_sph_data", "render_sph", "save_sph_data"]
@@ -39,78 +37,6 @@ def load_sph_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     loaded: dict[str, Any] = {name: read_csv(data / f"sph_{name}.csv") for name in TABLES}
     loaded["provenance"] = read_json(data / "sph_provenance.json")
     return loaded
-
-
-def _label(r: pd.Series) -> str:
-    if r["method"] == "wcsph":
-        return f"WCSPH c = {r['sound_speed_m_s']:.3g} m/s, r = {r['radius_mm']:g} mm"
-    return f"DFSPH, r = {r['radius_mm']:g} mm"
-
-
-def _series_figure(d: dict[str, Any], stem: Path) -> None:
-    runs, series = d["runs"], d["series"]
-    shapes = list(dict.fromkeys(runs["shape"]))
-    fig = Figure(figsize=(11, 4.2))
-    axes = np.atleast_1d(fig.subplots(1, len(shapes), sharey=True))
-    for ax, shape in zip(axes, shapes):
-        for i, (_, r) in enumerate(runs[(runs["shape"] == shape) & (runs["status"] == "ok")].iterrows()):
-            rows = series[
-                (series["shape"] == shape)
-                & (series["method"] == r["method"])
-                & np.isclose(series["radius_mm"], r["radius_mm"])
-                & np.isclose(
-                    series["sound_speed_m_s"].fillna(-1),
-                    -1 if np.isnan(r["sound_speed_m_s"]) else r["sound_speed_m_s"],
-                )
-            ]
-            style = "-" if r["method"] == "dfsph" else "--"
-            ax.step(
-                rows["t_start_ms"], rows["axial_N"], where="post", ls=style, color=f"C{i}", label=_label(r)
-            )
-            ax.plot([r["peak_time_ms"] + r["peak_window_ms"] / 2], [r["peak_N"]], "v", color=f"C{i}")
-        shape_row = d["shapes"].set_index("shape").loc[shape]
-        ax.axhline(shape_row["thin_sheet_N"], color="0.3", ls=":", label="thin-sheet model")
-        ax.axhline(shape_row["paper_N"], color="red", ls="-.", label="paper (DualSPHysics)")
-        ax.set_title(shape)
-        ax.set_xlabel("time [ms]")
-        ax.set_yscale("symlog", linthresh=5.0)
-    axes[0].set_ylabel("axial force of the half jet [N] (1 ms means; triangles: impact peaks)")
-    axes[-1].legend(fontsize=6)
-    fig.tight_layout()
-    save_figure(fig, stem)
-
-
-def _convergence_figure(d: dict[str, Any], stem: Path) -> None:
-    runs = d["runs"]
-    dfsph = runs[(runs["method"] == "dfsph") & (runs["status"] == "ok")]
-    fig = Figure(figsize=(11, 3.8))
-    ax1, ax2, ax3 = fig.subplots(1, 3)
-    for i, (shape, rows) in enumerate(dfsph.groupby("shape", sort=False)):
-        rows = rows.sort_values("radius_mm")
-        ax1.plot(
-            rows["radius_mm"], rows["mean_over_rho_q_v"], "o-", color=f"C{i}", label=f"{shape}, / rho Q V"
-        )
-        ax1.plot(
-            rows["radius_mm"],
-            rows["mean_over_measured_flux"],
-            "s--",
-            color=f"C{i}",
-            mfc="none",
-            label=f"{shape}, / measured flux x V",
-        )
-        ax2.plot(rows["radius_mm"], rows["peak_N"], "o-", color=f"C{i}", label=shape)
-        ax3.plot(rows["radius_mm"], rows["wall_s_per_simulated_ms"], "o-", color=f"C{i}", label=shape)
-    ax1.set_ylabel("quasi-steady mean force")
-    ax2.set_ylabel("first-impact peak [N] (0.1 ms mean)")
-    ax3.set_ylabel("wall time per simulated ms [s]")
-    ax3.set_yscale("log")
-    for ax in (ax1, ax2, ax3):
-        ax.set_xlabel("particle radius [mm]")
-        ax.invert_xaxis()
-        ax.legend(fontsize=7)
-    fig.suptitle("DFSPH convergence (half jet; finer particles to the right)")
-    fig.tight_layout()
-    save_figure(fig, stem)
 
 
 def _ordering(d: dict[str, Any]) -> str:
@@ -143,8 +69,8 @@ def render_sph(out_dir: str | os.PathLike[str]) -> Path:
     d = load_sph_data(out)
     prov = d["provenance"]
     config = prov["config"]
-    _series_figure(d, figures / "sph_series")
-    _convergence_figure(d, figures / "sph_convergence")
+    series_figure(d, figures / "sph_series")
+    convergence_figure(d, figures / "sph_convergence")
     runs = d["runs"]
     rho_q_v = float(runs["rho_q_v_N"].iloc[0])
     shape_rows = [
@@ -225,7 +151,7 @@ def render_sph(out_dir: str | os.PathLike[str]) -> Path:
     ]
     failed = runs[runs["status"] != "ok"]
     failures = "".join(
-        f"\n- {r['shape']}, {_label(r)}: **{r['status']}**: {r['reason']}" for _, r in failed.iterrows()
+        f"\n- {r['shape']}, {run_label(r)}: **{r['status']}**: {r['reason']}" for _, r in failed.iterrows()
     )
     quick = (
         "\n> **Quick run** (coarse particles only): a smoke test, not the report's settings.\n"
