@@ -20,8 +20,8 @@ examples:
   replication force bucket.csv --solver sph --particle-radius 0.75 --duration 20
       an SPH simulation with SPlisHSPlasH instead of the thin-sheet model (pip install ".[sph]")
 
-The jet travels along -z onto the surface. The model is an inviscid thin-sheet momentum
-balance (no SPH): each streamlet of the jet strikes a facet, loses its normal momentum and
+The jet travels along -z onto the surface. The default model (--solver sheet) is an inviscid
+thin-sheet momentum balance (no SPH): each streamlet of the jet strikes a facet, loses its normal momentum and
 spreads over the surface at the jet speed; the sheet follows concave creases, separates at
 convex ones and may strike the surface again; the force is mass flow x (velocity in -
 velocity out). The axial force is the component along the jet (positive when the jet pushes
