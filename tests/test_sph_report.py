@@ -46,7 +46,7 @@ def synthetic_runs(flat_peak, bucket_peak, exponent=1.0):
             rows.append(
                 {"shape": shape, "method": "wcsph", "radius_mm": 0.75, "sound_speed_m_s": factor * 4.34,
                  "mean_N": mean, "fx_N": 0.0, "peak_N": peak * (factor / 10) ** exponent,
-                 "max_step_N": 1.1 * peak, **common}
+                 "max_step_N": 1.1 * peak * (factor / 10) ** exponent, **common}
             )  # fmt: skip
     shapes = pd.DataFrame({"shape": ["flat plate", "pelton bucket"], "thin_sheet_fy_N": [0.0, 0.3]})
     return pd.DataFrame(rows), shapes, jet
@@ -60,15 +60,18 @@ def test_hypotheses_from_known_runs():
     full = h.loc["the full jet rather than the half (2 x quasi-steady mean, DFSPH)"]
     assert (full["flat_N"], full["bucket_N"]) == (4.8, 8.6)
     assert h.loc["none of these", "verdict"] == "no"  # one reading matched
-    assert h["sound_exponent"].iloc[0] == pytest.approx(0.5)
-    fitted = h[h.index.str.startswith("first-impact peak (WCSPH) at the sound speed")].iloc[0]
-    # c fitted so that 20 (21.96 / 20)^(1/0.5) ...: the bucket follows with the same factor
-    assert fitted["flat_N"] == 21.96 and fitted["bucket_N"] == pytest.approx(18.0 * 21.96 / 20.0)
+    assert h["step_sound_exponent_flat"].iloc[0] == pytest.approx(0.5)
+    fitted = h.loc["largest single-step force (WCSPH) at the sound speed that fits the flat plate"]
+    # the c at which 22 N (at 43.4 m/s) ~ c^0.5 reaches 21.96 N; the bucket's 19.8 N there follows
+    assert fitted["flat_N"] == 21.96 and fitted["bucket_N"] == pytest.approx(1.1 * 18.0 * 21.96 / 22.0)
+    assert fitted["verdict"] == "consistent" and "c = 43.2 m/s fits the flat plate" in fitted["why"]
     sums = h.loc["sum of the magnitudes of the force components (x, y and z)"]
     assert (sums["flat_N"], sums["bucket_N"]) == pytest.approx((2.41, 4.61))
-    runs, shapes, jet = synthetic_runs(flat_peak=22.0, bucket_peak=7.0)
+    runs, shapes, jet = synthetic_runs(flat_peak=22.0, bucket_peak=7.0, exponent=0.0)
     h = hypotheses(runs, shapes, jet).set_index("hypothesis")
     assert h.loc["first-impact peak (WCSPH, c = 10 V)", "verdict"] == "flat plate only"
+    fitted = h.loc["largest single-step force (WCSPH) at the sound speed that fits the flat plate"]
+    assert np.isnan(fitted["flat_N"]) and fitted["verdict"] == "not determined"  # no growth with c
     assert h.loc["none of these", "verdict"] == "holds"
 
 

@@ -95,7 +95,7 @@ def convergence_figure(d: dict[str, Any], stem: Path) -> None:
     for ax in (ax1, ax2, ax3):
         ax.set_xlabel("particle radius [mm]")
         ax.invert_xaxis()
-        ax.legend(fontsize=7)
+        ax.legend(fontsize=6, loc="center right" if ax is ax2 else "best")
     fig.suptitle("Convergence with particle size (half jet; finer particles to the right)")
     fig.tight_layout()
     save_figure(fig, stem)
