@@ -4,7 +4,8 @@ Every error the library raises on purpose derives from :class:`ReplicationError`
 callers (and the command line, which turns them into a one-line message and a non-zero
 exit status) can catch one type. Errors about the caller's data or parameters are
 :class:`InputError` (also a :class:`ValueError`); problems writing results are
-:class:`OutputError` (also an :class:`OSError`).
+:class:`OutputError` (also an :class:`OSError`); an optional solver that is missing is
+:class:`SolverUnavailableError` and a failed simulation :class:`SimulationError`.
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ __all__ = [
     "CloudFileError",
     "DegenerateInputError",
     "OutputError",
+    "SimulationError",
+    "SolverUnavailableError",
     "DuplicatePointsWarning",
 ]
 
@@ -44,6 +47,14 @@ class DegenerateInputError(InputError):
 
 class OutputError(ReplicationError, OSError):
     """A result that cannot be written (for example a missing output directory)."""
+
+
+class SolverUnavailableError(ReplicationError):
+    """An optional solver is not installed; the message names the command that installs it."""
+
+
+class SimulationError(ReplicationError):
+    """A simulation that failed (blew up, timed out or crashed); the message gives the reason."""
 
 
 class DuplicatePointsWarning(UserWarning):

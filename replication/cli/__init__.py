@@ -20,7 +20,7 @@ __all__ = ["build_parser", "main"]
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand registered."""
-    from replication.cli import casestudy, force, reports, surfaces
+    from replication.cli import casestudy, force, reports, sph, surfaces
 
     parser = argparse.ArgumentParser(
         prog="replication",
@@ -35,6 +35,7 @@ def build_parser() -> argparse.ArgumentParser:
     force.register(sub)
     casestudy.register(sub)
     reports.register(sub)
+    sph.register(sub)
     return parser
 
 

@@ -17,9 +17,11 @@ examples:
       (depth axis z) of a point cloud in millimetres
   replication force my_mesh.vtp --full-jet --center 18 0 --json
       any triangulated height field z(x, y) (.vtk or .vtp), the whole jet, one JSON object
+  replication force bucket.csv --solver sph --particle-radius 0.75 --duration 20
+      an SPH simulation with SPlisHSPlasH instead of the thin-sheet model (pip install ".[sph]")
 
-The jet travels along -z onto the surface. The model is an inviscid thin-sheet momentum
-balance (no SPH): each streamlet of the jet strikes a facet, loses its normal momentum and
+The jet travels along -z onto the surface. The default model (--solver sheet) is an inviscid
+thin-sheet momentum balance (no SPH): each streamlet of the jet strikes a facet, loses its normal momentum and
 spreads over the surface at the jet speed; the sheet follows concave creases, separates at
 convex ones and may strike the surface again; the force is mass flow x (velocity in -
 velocity out). The axial force is the component along the jet (positive when the jet pushes
@@ -49,8 +51,10 @@ def _load(path: str) -> tuple[Any, Any, str, int]:
 
 def _cmd_force(args: argparse.Namespace) -> int:
     from replication.casestudy import JetConfig, jet_force
+    from replication.cli.sph import check_force_options, force_sph
     from replication.errors import InputError
 
+    check_force_options(args)
     if args.no_domain and args.domain is not None:
         raise InputError("give either --domain or --no-domain, not both")
     if not (math.isfinite(args.diameter) and args.diameter > 0):
@@ -75,6 +79,8 @@ def _cmd_force(args: argparse.Namespace) -> int:
     )
     with relay_warnings():
         points, triangles, what, merged = _load(args.input)
+    if args.solver == "sph":
+        return force_sph(args, config, points, triangles, what, merged)
     # load the compiled kernels first (once per process), so the time is one evaluation's
     jet_force([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], JetConfig(domain=None), resolution=1)
     start = time.perf_counter()
@@ -174,4 +180,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--no-domain", action="store_true", help="accept a surface anywhere")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    from replication.cli.sph import add_force_options
+
+    add_force_options(p)
     p.set_defaults(func=_cmd_force)

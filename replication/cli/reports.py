@@ -60,6 +60,10 @@ def _cmd_report(args: argparse.Namespace) -> int:
         written.append(render_performance(args.asv_results, out, commits=args.commits))
     if (out / "data" / "table1_provenance.json").is_file():
         written.append(render_table1(out))
+    if (out / "data" / "sph_provenance.json").is_file():
+        from replication.report.sph import render_sph
+
+        written.append(render_sph(out))
     if (out / "data" / "casestudy_provenance.json").is_file():
         written.append(render_casestudy(out))
     if not written:
@@ -78,6 +82,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 STAGES = (
     ("table1", "Table 1 and Fig. 6: file size, computation time and paired statistics, ADT vs NURBS"),
+    ("sph", "the case study on a real SPH solver (SPlisHSPlasH; runs when the extra sph is installed)"),
     ("casestudy", "Figs. 8 and 9: the water-jet genetic algorithm"),
 )
 
@@ -94,6 +99,14 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         t0 = time.perf_counter()
         if name == "table1":
             path = _run_table1(out, args.quick, args.invocation)
+        elif name == "sph":  # optional: needs the engine (pip install ".[sph]")
+            from replication.casestudy.sph import INSTALL_HINT, engine_available
+            from replication.cli.sph import run_sph_report
+
+            if not engine_available():
+                print(f"  [skipped] {name}: the SPH solver is not installed ({INSTALL_HINT})")
+                continue
+            path = run_sph_report(out, args.quick, args.invocation)
         else:
             ga_args = argparse.Namespace(
                 quick=args.quick, runs=None, generations=None, population=None, seed=None, run_dir=None,

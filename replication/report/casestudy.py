@@ -170,6 +170,11 @@ def render_casestudy(out_dir: str | os.PathLike[str]) -> Path:
         for _, r in d["claims"].iterrows()
     ]
     total = d["runs"][["evaluations", "cache_hits"]].sum()
+    sph_link = (  # the SPH study (optional extra), when its data are here
+        "\n  The same shapes on a real SPH solver, and what the paper's forces can be: [sph.md](sph.md)."
+        if (out / "data" / "sph_provenance.json").is_file()
+        else ""
+    )
     quick = (
         "\n> **Quick run** (a reduced GA for smoke testing): not the paper's settings.\n"
         if prov.get("quick")
@@ -277,7 +282,7 @@ and the size of the individual's surface as compact legacy VTK:
   jet by 2 rho Q V; the paper's SPH forces for the flat plate and the bucket exceed even the full
   jet's bound and rank the bucket below the flat plate, which momentum theory does not allow for a
   cup that turns the sheet back. The paper's forces therefore cannot be reproduced by any steady
-  momentum balance; the ranking of shapes is what the GA needs, and ours follows momentum theory.
+  momentum balance; the ranking of shapes is what the GA needs, and ours follows momentum theory.{sph_link}
 - **Selection.** The paper's random selection puts no pressure on the parents: only the elites
   carry fitness forward, and with 0.01 % mutation per gene almost no child is mutated, so progress
   comes from crossover of the elites with random individuals.

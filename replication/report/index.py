@@ -29,6 +29,11 @@ REPORTS: tuple[tuple[str, str, str], ...] = (
         "the water-jet case study: force model and genetic algorithm (section 6)",
     ),
     (
+        "sph.md",
+        "The case study on a real SPH solver",
+        "SPlisHSPlasH: convergence, and the paper's forces examined (section 6)",
+    ),
+    (
         "performance.md",
         "Performance history",
         "asv benchmarks of ADT, NURBS and the case study across commits",

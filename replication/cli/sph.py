@@ -1,0 +1,241 @@
+"""The SPH solver on the command line: ``replication force --solver sph`` and ``replication sph``."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from replication.cli.common import emit_json
+
+SOLVERS = ("sheet", "sph")
+#: The SPH options of ``replication force`` (dest names); they need --solver sph.
+FORCE_OPTIONS = ("particle_radius", "duration", "sph_method", "sound_speed", "timeout", "run_dir")
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a positive finite number."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text}")
+    return value
+
+
+def add_force_options(p: argparse.ArgumentParser) -> None:
+    """``--solver`` and the SPH options of ``replication force``."""
+    p.add_argument(
+        "--solver",
+        choices=SOLVERS,
+        default="sheet",
+        help="sheet: the thin-sheet momentum balance (default, milliseconds); sph: an SPH simulation "
+        'with SPlisHSPlasH in a child process (seconds to minutes; pip install ".[sph]")',
+    )
+    g = p.add_argument_group("SPH solver (with --solver sph)")
+    g.add_argument(
+        "--particle-radius", type=positive_float, metavar="R", help="particle radius in mm (default 0.75)"
+    )
+    g.add_argument("--duration", type=positive_float, metavar="T", help="simulated time in ms (default 20)")
+    g.add_argument(
+        "--sph-method",
+        choices=("dfsph", "wcsph"),
+        help="pressure solver: dfsph (incompressible, default) or wcsph (weakly compressible)",
+    )
+    g.add_argument(
+        "--sound-speed",
+        type=positive_float,
+        metavar="C",
+        help="wcsph: numerical speed of sound in m/s (default 10 V)",
+    )
+    g.add_argument(
+        "--timeout", type=positive_float, metavar="S", help="wall-clock limit in seconds (default 1800)"
+    )
+    g.add_argument(
+        "--run-dir", metavar="DIR", help="keep the simulation's files (scene, log, series CSV) in DIR"
+    )
+
+
+def _settings(args: argparse.Namespace) -> Any:
+    from replication.casestudy.sph import SPHSettings
+
+    changes: dict[str, Any] = {}
+    if args.particle_radius is not None:
+        changes["particle_radius"] = args.particle_radius * 1e-3
+    if args.duration is not None:
+        changes["duration"] = args.duration * 1e-3
+    if args.sph_method is not None:
+        changes["method"] = args.sph_method
+    if args.sound_speed is not None:
+        changes["sound_speed"] = args.sound_speed
+    return SPHSettings(**changes)
+
+
+def check_force_options(args: argparse.Namespace) -> None:
+    """Refuse SPH options without ``--solver sph``."""
+    from replication.errors import InputError
+
+    if args.solver != "sph":
+        given = [name for name in FORCE_OPTIONS if getattr(args, name, None) is not None]
+        if given:
+            flag = "--" + given[0].replace("_", "-")
+            raise InputError(f"{flag} applies only with --solver sph")
+
+
+def force_sph(
+    args: argparse.Namespace, config: Any, points: Any, triangles: Any, what: str, merged: int
+) -> int:
+    """``replication force --solver sph``: simulate, print the result (or one JSON object)."""
+    from tqdm import tqdm
+
+    from replication.casestudy.sph import DEFAULT_TIMEOUT, require_engine, sph_force
+
+    require_engine()
+    settings = _settings(args)
+    total_ms = 1e3 * settings.duration
+    with tqdm(
+        total=round(total_ms, 3),
+        desc="SPH simulated time",
+        unit="ms",
+        file=sys.stderr,
+        leave=False,
+        bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} ms [{elapsed}<{remaining}]",
+    ) as bar:
+
+        def progress(t: float) -> None:
+            bar.update(min(1e3 * t, total_ms) - bar.n)
+
+        result = sph_force(
+            points,
+            triangles,
+            config,
+            settings,
+            timeout=args.timeout or DEFAULT_TIMEOUT,
+            run_dir=args.run_dir,
+            progress=progress,
+        )
+    result.check()
+    report = sph_report(args, config, points, triangles, merged, result)
+    if args.json:
+        emit_json(report)
+        return 0
+    jet = (
+        "full jet"
+        if config.full_jet
+        else "half jet (y >= 0): simulated whole on the surface mirrored in y = 0, halved"
+    )
+    method = (
+        "DFSPH"
+        if settings.method == "dfsph"
+        else f"WCSPH, c = {settings.speed_of_sound(config.velocity):.4g} m/s"
+    )
+    a, b = (1e3 * t for t in result.window)
+    print(f"water-jet force on {args.input} ({what}), SPH: SPlisHSPlasH {result.engine}, {method}")
+    print(f"{jet}; {args.diameter:g} mm at {config.velocity:g} m/s along -z")
+    print(
+        f"axial force {result.mean_axial:.4g} N = {report['over_rho_q_v']:.3f} rho Q V "
+        f"({report['over_measured_flux']:.3f} x measured mass flux x V): mean over {a:.3g}-{b:.3g} ms, "
+        f"std {result.std_axial:.2g} N"
+    )
+    print(
+        f"first-impact peak {result.peak_axial:.4g} N (mean over {1e3 * settings.peak_window:g} ms from "
+        f"{1e3 * result.peak_time:.3g} ms); largest single-step force {result.max_step_axial:.4g} N"
+    )
+    print(
+        f"particle radius {1e3 * settings.particle_radius:g} mm: {result.fluid_particles} fluid and "
+        f"{result.boundary_particles} boundary particles, {result.steps} steps, "
+        f"{1e3 * result.simulated_time:.3g} ms simulated in {result.wall_seconds:.1f} s"
+    )
+    if args.run_dir:
+        print(f"files (scene, engine log, steps.csv, series.csv, result.json) in {result.run_dir}")
+    if merged:
+        print(f"merged {merged} point(s) sharing an (x, y) position (mean height)")
+    return 0
+
+
+def sph_report(
+    args: argparse.Namespace, config: Any, points: Any, triangles: Any, merged: int, result: Any
+) -> dict:
+    """The JSON object of ``replication force --solver sph --json``."""
+    return {
+        "input": args.input,
+        "solver": "sph",
+        "vertices": int(points.shape[0]),
+        "triangles": int(triangles.shape[0]),
+        "points_merged": merged,
+        "jet": {
+            "center_mm": list(args.center),
+            "diameter_mm": args.diameter,
+            "velocity_m_s": config.velocity,
+            "density_kg_m3": config.density,
+            "full_jet": config.full_jet,
+        },
+        "axial_force_N": result.mean_axial,
+        "force_N": [float(v) for v in result.mean_force],
+        "momentum_flux_N": result.momentum_flux,
+        "over_rho_q_v": result.mean_axial / result.momentum_flux,
+        "over_measured_flux": result.mean_axial / result.measured_momentum_flux,
+        **{k: v for k, v in result.as_dict().items() if k not in ("jet",)},
+    }
+
+
+def _cmd_sph(args: argparse.Namespace) -> int:
+    from replication.casestudy.sph import require_engine
+    from replication.cli.reports import output_dir
+
+    require_engine()
+    out = output_dir(args)
+    start = time.perf_counter()
+    path = run_sph_report(out, args.quick, args.invocation)
+    print(f"wrote {path} ({time.perf_counter() - start:.1f} s; data in {out / 'data'})")
+    return 0
+
+
+def run_sph_report(out: Path, quick: bool, command: str) -> Path:
+    """Run the SPH study (quick or full) into ``out`` and render ``sph.md``."""
+    from tqdm import tqdm
+
+    from replication.experiments.sph import SPHStudyConfig, run_sph_study
+    from replication.report.index import render_index
+    from replication.report.sph import render_sph, save_sph_data
+
+    config = SPHStudyConfig.quick() if quick else SPHStudyConfig()
+    with tqdm(total=len(config.runs()), desc="SPH simulations", file=sys.stderr, leave=False) as bar:
+
+        def tick(label: str) -> None:
+            bar.set_postfix_str(label)
+            bar.update(1)
+
+        results = run_sph_study(config, command=command, quick=quick, on_run=tick)
+    save_sph_data(results, out)
+    path = render_sph(out)
+    render_index(out)
+    return path
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``sph`` subcommand (the SPH study and its report)."""
+    from replication.cli.reports import DEFAULT_DIR, QUICK_DIR
+
+    p = sub.add_parser(
+        "sph",
+        help="the case study on a real SPH solver: convergence and the paper's forces examined (sph.md)",
+        description=(
+            "Simulate the flat plate and the bucket with SPlisHSPlasH (the optional extra: "
+            'pip install ".[sph]") at several particle sizes and with two pressure solvers, and '
+            "examine what the paper's SPH forces can be. Writes sph.md, its figures and data."
+        ),
+    )
+    p.add_argument(
+        "--quick", action="store_true", help=f"coarse particles only (under a minute) into {QUICK_DIR}/"
+    )
+    p.add_argument(
+        "--output-dir",
+        metavar="DIR",
+        help=f"where the report, figures and data go (default {DEFAULT_DIR}/, or {QUICK_DIR}/ with --quick)",
+    )
+    p.set_defaults(func=_cmd_sph)
