@@ -16,7 +16,11 @@ __all__ = [
     "CloudFileError",
     "DegenerateInputError",
     "OutputError",
+    "CheckpointError",
+    "ReportDataError",
+    "ExecutorError",
     "DuplicatePointsWarning",
+    "CloudFileWarning",
 ]
 
 
@@ -46,5 +50,21 @@ class OutputError(ReplicationError, OSError):
     """A result that cannot be written (for example a missing output directory)."""
 
 
+class CheckpointError(InputError):
+    """A GA run directory whose configuration or checkpoint is missing, malformed or inconsistent."""
+
+
+class ReportDataError(InputError):
+    """Saved report data (CSV/JSON under ``data/``) that are missing, malformed or incomplete."""
+
+
+class ExecutorError(ReplicationError):
+    """An executor that cannot be used (for example an unreachable dask scheduler)."""
+
+
 class DuplicatePointsWarning(UserWarning):
     """Points that share a projected position were merged into one vertex."""
+
+
+class CloudFileWarning(UserWarning):
+    """A point-cloud file that was read, but with a doubt worth telling the user about."""
