@@ -9,13 +9,19 @@ from typing import Any
 from replication.cli.common import (
     add_cloud_source,
     add_frame_options,
-    check_output,
     emit_json,
+    finite_positive,
     frame_kwargs,
     load_or_generate,
     pair,
+    probability,
     relay_warnings,
+    warm_up,
 )
+from replication.cli.files import check_outputs, save_generated_cloud, suffix_warning, write_all_or_none
+
+SURFACE_KINDS = {"vtk": "legacy VTK, ASCII", "vtp": "VTK XML, binary"}
+NURBS_KINDS = {"smesh": "compact smesh, ASCII", "json": "geomdl JSON"}
 
 EPILOG_ADT = """\
 examples:
@@ -70,10 +76,12 @@ def _cmd_adt(args: argparse.Namespace) -> int:
     from replication.surfaces import AXES, adt, closed_adt, parse_split
 
     fmt = surface_format(args.output, args.format) if args.output else args.format
-    check_output(args.output)
-    start = time.perf_counter()
+    check_outputs(args)
+    suffix_warning(args.output, args.format, SURFACE_KINDS)
     with relay_warnings():
         cloud, source, meta = load_or_generate(args)
+        startup_s = warm_up("adt", args)
+        start = time.perf_counter()
         if args.split:
             if args.depth != "min":
                 raise InputError(
@@ -104,8 +112,11 @@ def _cmd_adt(args: argparse.Namespace) -> int:
                 "spreads": dict(zip(AXES, surface.spreads)),
                 "points_merged": surface.n_merged,
             }
-    build_s = time.perf_counter() - start
-    written = write_surface(mesh, args.output, fmt) if args.output else None
+        build_s = time.perf_counter() - start
+    written, _ = write_all_or_none(
+        (args.output, lambda: write_surface(mesh, args.output, fmt)),
+        (args.save_cloud, lambda: save_generated_cloud(cloud, args, meta)),
+    )
     report: dict[str, Any] = {
         "input": source,
         "points": int(cloud.shape[0]),
@@ -118,6 +129,7 @@ def _cmd_adt(args: argparse.Namespace) -> int:
         "format": fmt if args.output else None,
         "bytes": written,
         "build_seconds": build_s,
+        "startup_seconds": startup_s,
         **meta,
     }
     if args.json:
@@ -144,7 +156,7 @@ def _print_merges_and_outputs(report: dict[str, Any], args: argparse.Namespace) 
         merged = report["points_merged"]
         print(f"merged {merged} point(s) sharing a projected position (policy {args.duplicates})")
     if args.output:
-        kind = {"vtk": "legacy VTK, ASCII", "vtp": "VTK XML, binary"}[report["format"]]
+        kind = SURFACE_KINDS[report["format"]]
         print(f"wrote {args.output} ({report['bytes']:,} bytes, {kind})")
     else:
         print("no output file written (use -o OUT)")
@@ -152,15 +164,64 @@ def _print_merges_and_outputs(report: dict[str, Any], args: argparse.Namespace) 
         print(f"wrote the cloud to {report['cloud_file']} ({report['cloud_bytes']:,} bytes)")
 
 
+#: Peak memory per tessellation sample in bytes: the growth of the peak resident size from
+#: 2 x 2 to 1000 x 1000 samples (``/usr/bin/time``), rounded up; geomdl keeps every point as a
+#: Python list of floats (435 measured), the fast evaluator numpy arrays (52 measured).
+BYTES_PER_SAMPLE = {"geomdl": 450, "fast": 56}
+
+
+def _available_memory() -> int | None:
+    """Bytes of memory available to a new allocation (Linux MemAvailable), or None if unknown."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as handle:
+            for line in handle:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        import os
+
+        return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def _size(n: float) -> str:
+    for unit in ("bytes", "KiB", "MiB", "GiB", "TiB", "PiB"):
+        if n < 1024 or unit == "PiB":
+            return f"{n:.3g} {unit}"
+        n /= 1024
+    return f"{n:.3g} PiB"  # pragma: no cover
+
+
+def check_tessellation(shape: tuple[int, int], evaluator: str) -> None:
+    """Refuse, before any work, a tessellation whose samples cannot fit in the available memory."""
+    from replication.errors import InputError
+
+    s_u, s_v = shape
+    need = s_u * s_v * BYTES_PER_SAMPLE[evaluator]
+    available = _available_memory()
+    if available is not None and need > available:
+        raise InputError(
+            f"--tessellation {s_u}x{s_v} needs about {_size(need)} of memory ({s_u * s_v:,} samples x "
+            f"{BYTES_PER_SAMPLE[evaluator]} bytes with the {evaluator} evaluator), but {_size(available)} "
+            "is available: choose fewer samples"
+        )
+
+
 def _cmd_nurbs(args: argparse.Namespace) -> int:
     from replication.io.nurbs import nurbs_format, write_nurbs
     from replication.surfaces.nurbs import fit_nurbs
 
     fmt = nurbs_format(args.output, args.format) if args.output else args.format
-    check_output(args.output)
-    start = time.perf_counter()
+    check_outputs(args)
+    suffix_warning(args.output, args.format, NURBS_KINDS)
+    check_tessellation(args.tessellation, args.evaluator)
     with relay_warnings():
         cloud, source, meta = load_or_generate(args)
+        startup_s = warm_up("nurbs", args)
+        start = time.perf_counter()
         nurbs = fit_nurbs(
             cloud,
             degree=args.degree,
@@ -169,8 +230,11 @@ def _cmd_nurbs(args: argparse.Namespace) -> int:
             evaluator=args.evaluator,
             **frame_kwargs(args),
         )
-    build_s = time.perf_counter() - start
-    written = write_nurbs(nurbs.patch, args.output, fmt) if args.output else None
+        build_s = time.perf_counter() - start
+    written, _ = write_all_or_none(
+        (args.output, lambda: write_nurbs(nurbs.patch, args.output, fmt)),
+        (args.save_cloud, lambda: save_generated_cloud(cloud, args, meta)),
+    )
     m_u, m_v = nurbs.patch.net_shape
     report: dict[str, Any] = {
         "input": source,
@@ -189,6 +253,7 @@ def _cmd_nurbs(args: argparse.Namespace) -> int:
         "format": fmt if args.output else None,
         "bytes": written,
         "build_seconds": build_s,
+        "startup_seconds": startup_s,
         **meta,
     }
     if args.json:
@@ -204,10 +269,11 @@ def _cmd_nurbs(args: argparse.Namespace) -> int:
         "and took the nearest point's depth"
     )
     if args.output:
-        kind = {"smesh": "compact smesh, ASCII", "json": "geomdl JSON"}[fmt]
-        print(f"wrote {args.output} ({written:,} bytes, {kind})")
+        print(f"wrote {args.output} ({written:,} bytes, {NURBS_KINDS[fmt]})")
     else:
         print("no output file written (use -o OUT)")
+    if "cloud_file" in meta:
+        print(f"wrote the cloud to {meta['cloud_file']} ({meta['cloud_bytes']:,} bytes)")
     return 0
 
 
@@ -239,6 +305,7 @@ def _format_stats(name: str, pairs: Any, st: Any) -> list[str]:
 def _cmd_compare(args: argparse.Namespace) -> int:
     from replication.compare import compare
 
+    check_outputs(args)
     with relay_warnings():
         cloud, source, meta = load_or_generate(args)
         result = compare(
@@ -250,6 +317,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
             alpha=args.alpha,
             **frame_kwargs(args),
         )
+    write_all_or_none((args.save_cloud, lambda: save_generated_cloud(cloud, args, meta)))
     m_u, m_v = result.nurbs.patch.net_shape
     pairings: dict[str, Any] = {}
     for name, p in result.pairings.items():
@@ -282,6 +350,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     )
     for name in result.pairings:
         print("\n".join(_format_stats(name, result.pairings[name], result.statistics[name])))
+    if "cloud_file" in meta:
+        print(f"wrote the cloud to {meta['cloud_file']} ({meta['cloud_bytes']:,} bytes)")
     return 0
 
 
@@ -357,11 +427,13 @@ def register(sub: argparse._SubParsersAction) -> None:
             )
             p.add_argument(
                 "--margin",
-                type=float,
+                type=finite_positive,
                 default=0.05,
                 help="equivalence margin as a fraction of the depth range (default 0.05)",
             )
-            p.add_argument("--alpha", type=float, default=0.05, help="significance level (default 0.05)")
+            p.add_argument(
+                "--alpha", type=probability, default=0.05, help="significance level (default 0.05)"
+            )
         p.add_argument("--degree", type=int, default=2, help="NURBS degree in both directions (default 2)")
         p.add_argument("--net", type=pair, metavar="MUxMV", help="impose the control net, e.g. 9x5")
         add_frame_options(p)
