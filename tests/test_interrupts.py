@@ -68,7 +68,7 @@ def _interrupt(run_dir, executor_args, after_generation, delay, timeout=120):
     return process, presser
 
 
-def _check_stopped(process, presser, run_dir, timeout=120):
+def _check_stopped(process, presser, run_dir, timeout=180):
     out, err = process.communicate(timeout=timeout)
     presser.join()
     assert process.returncode == 130, err
@@ -81,32 +81,53 @@ def _check_stopped(process, presser, run_dir, timeout=120):
     return state
 
 
-def _resume_and_compare(run_dir, uninterrupted):
+#: (executor options, generation after whose checkpoint Ctrl-C is pressed, delay in seconds)
+CASES = {
+    "serial-1": (["--executor", "serial"], 1, 0.0),
+    "serial-2": (["--executor", "serial"], 1, 0.013),
+    "serial-3": (["--executor", "serial"], 2, 0.029),
+    "serial-4": (["--executor", "serial"], 3, 0.007),
+    "process": (["--executor", "process", "--workers", "1"], 2, 0.01),
+    "dask": (["--executor", "dask", "--workers", "1"], 2, 0.01),
+}
+
+
+@pytest.fixture(scope="module")
+def interrupted(tmp_path_factory):
+    """Every case started at once (each is pressed at its own moment); their run directories."""
+    base = tmp_path_factory.mktemp("interrupted")
+    cases = {name: case for name, case in CASES.items() if name != "dask" or _has_dask()}
+    started = {name: (base / name, *_interrupt(base / name, *case)) for name, case in cases.items()}
+    yield started
+    for _, process, presser in started.values():  # after a failed check: stop what still runs
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.communicate()
+        presser.join()
+
+
+def _has_dask():
+    try:
+        import dask.distributed  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+@pytest.mark.parametrize("name", [n for n in CASES if n.startswith("serial")])
+def test_ctrl_c_in_a_serial_run(interrupted, uninterrupted, name):
+    run_dir, process, presser = interrupted[name]
+    _check_stopped(process, presser, run_dir)
     run_ga(CONFIG, 0, run_dir=run_dir, pool_factory=serial, resume=True)
     assert _state(run_dir) == uninterrupted
 
 
-MOMENTS = [(1, 0.0), (1, 0.013), (2, 0.029), (3, 0.007)]
-
-
-def test_ctrl_c_in_serial_runs_at_several_moments(tmp_path, uninterrupted):
-    started = []
-    for k, (generation, delay) in enumerate(MOMENTS):  # all at once: each has its own moment
-        run_dir = tmp_path / f"run{k}"
-        started.append((run_dir, *_interrupt(run_dir, ["--executor", "serial"], generation, delay)))
-    for run_dir, process, presser in started:
-        _check_stopped(process, presser, run_dir)
-    for run_dir, _, _ in started:
-        _resume_and_compare(run_dir, uninterrupted)
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("kind", ["process", "dask"])
-def test_ctrl_c_with_worker_processes(tmp_path, uninterrupted, kind):
+@pytest.mark.parametrize("name", ["process", "dask"])
+def test_ctrl_c_with_worker_processes(interrupted, uninterrupted, name):
     """Ctrl-C reaches the workers too (one process group): still no failure, a clean stop."""
-    if kind == "dask":
-        pytest.importorskip("dask.distributed")
-    run_dir = tmp_path / "run"
-    process, presser = _interrupt(run_dir, ["--executor", kind, "--workers", "1"], 2, 0.01)
+    if name not in interrupted:
+        pytest.skip("dask is not installed")
+    run_dir, process, presser = interrupted[name]
     _check_stopped(process, presser, run_dir)
-    _resume_and_compare(run_dir, uninterrupted)
+    run_ga(CONFIG, 0, run_dir=run_dir, pool_factory=serial, resume=True)
+    assert _state(run_dir) == uninterrupted

@@ -56,11 +56,12 @@ class Progress:
             if postfix:
                 self._bar.set_postfix(postfix, refresh=False)
             self._bar.update(steps)
-            return
-        if self.total and self.done < self.total and self.done / self.total >= self._next_line - 1e-12:
+        elif self.total and self.done < self.total and self.done / self.total >= self._next_line - 1e-12:
             while self._next_line <= self.done / self.total + 1e-12:
                 self._next_line += LINE_STEP
             self._line()
+        if self.done >= self.total:  # finished: say so now, with the time the work took
+            self.close()
 
     def close(self) -> None:
         """Finish the display: the bar stays, or a last line says what was completed."""
