@@ -13,10 +13,8 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
-import logging
 import math
 import os
-import socket
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -24,13 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from replication.casestudy.ga import GAConfig, points_from_genome
-from replication.casestudy.interrupts import (
-    caused_by_interrupt,
-    ignore_interrupts,
-    quiet_spawn_context,
-    sigint_ignored_by_children,
-)
-from replication.errors import DuplicatePointsWarning, ExecutorError, InputError
+from replication.casestudy.interrupts import caused_by_interrupt, ignore_interrupts, quiet_spawn_context
+from replication.errors import DuplicatePointsWarning, InputError
 
 __all__ = [
     "EXECUTORS",
@@ -38,7 +31,6 @@ __all__ = [
     "Outcome",
     "SerialExecutor",
     "check_executor_options",
-    "check_scheduler_address",
     "evaluate_batch",
     "executor",
 ]
@@ -142,10 +134,6 @@ def evaluate_batch(
     return outcomes
 
 
-#: Seconds to wait for a dask scheduler named by its address before giving up.
-CONNECT_TIMEOUT_S = 5.0
-
-
 def check_executor_options(kind: str, workers: int | None = None, scheduler: str | None = None) -> None:
     """Refuse option combinations an executor would silently ignore, and malformed addresses.
 
@@ -177,52 +165,9 @@ def check_executor_options(kind: str, workers: int | None = None, scheduler: str
             "brings its own workers: give one of them"
         )
     if scheduler is not None:
+        from replication.casestudy.cluster import check_scheduler_address
+
         check_scheduler_address(scheduler)
-
-
-def check_scheduler_address(scheduler: str) -> str:
-    """The resolved address of a dask scheduler (``tcp://host:8786``), or an InputError."""
-    try:
-        from distributed.comm import resolve_address
-    except ImportError as exc:  # pragma: no cover - depends on the optional extra
-        raise InputError("dask evaluation needs the optional extra: pip install 'replication[dask]'") from exc
-
-    try:
-        return resolve_address(scheduler)  # the syntax, and the host name
-    except (ValueError, OSError) as exc:
-        raise InputError(
-            f"--scheduler {scheduler!r} is not a dask scheduler address like tcp://host:8786 ({exc})"
-        ) from exc
-
-
-def _connect(scheduler: str):  # type: ignore[no-untyped-def]
-    """A dask Client of the scheduler at ``scheduler``, or a one-line error quickly."""
-    from dask.distributed import Client
-
-    address = check_scheduler_address(scheduler)
-    if address.startswith("tcp://"):  # a refused connection fails at once, not after the timeout
-        from distributed.comm import get_address_host_port
-
-        host, port = get_address_host_port(address)
-        try:
-            socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S).close()
-        except OSError as exc:
-            raise ExecutorError(
-                f"cannot reach a dask scheduler at {scheduler}: {exc.strerror or exc}; is it running, and is "
-                "the address right?"
-            ) from exc
-    try:
-        return Client(scheduler, timeout=CONNECT_TIMEOUT_S)
-    except (OSError, TimeoutError) as exc:
-        raise ExecutorError(
-            f"cannot reach a dask scheduler at {scheduler} within {CONNECT_TIMEOUT_S:g} s: is it running, "
-            "and is the address right?"
-        ) from exc
-    except Exception as exc:  # something answered, but not in dask's protocol
-        raise ExecutorError(
-            f"no dask scheduler at {scheduler}: something answers there but not in dask's protocol "
-            f"({type(exc).__name__})"
-        ) from exc
 
 
 @contextlib.contextmanager
@@ -248,11 +193,11 @@ def executor(
         Options that do not go together (:func:`check_executor_options`), a malformed
         scheduler address, dask not installed.
     ExecutorError
-        A scheduler that does not answer within ``CONNECT_TIMEOUT_S``.
+        A scheduler that cannot be reached (see :mod:`.cluster`).
 
     Notes
     -----
-    Worker processes (pool or local dask cluster) start with SIGINT blocked, so Ctrl-C in a
+    Worker processes (pool or local dask cluster) do not take SIGINT, so Ctrl-C in a
     terminal reaches the parent alone, which stops the run between evaluations (see
     :mod:`.interrupts`); pending evaluations are cancelled on the way out.
     """
@@ -271,50 +216,7 @@ def executor(
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
     else:
-        try:
-            from dask.distributed import Client, LocalCluster
-        except ImportError as exc:  # pragma: no cover - depends on the optional extra
-            raise InputError(
-                "dask evaluation needs the optional extra: pip install 'replication[dask]'"
-            ) from exc
-        if scheduler:
-            with _log_levels_restored(), _connect(scheduler) as client:
-                yield from _dask_executor(client)
-        else:
-            with sigint_ignored_by_children():  # the worker processes started now inherit it
-                cluster = LocalCluster(
-                    n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None
-                )
-            with _log_levels_restored(), cluster, Client(cluster) as client:
-                yield from _dask_executor(client)
+        from replication.casestudy.cluster import dask_executor
 
-
-_DASK_LOGGERS = ("distributed", "tornado")
-
-
-@contextlib.contextmanager
-def _log_levels_restored() -> Iterator[None]:
-    loggers = [logging.getLogger(name) for name in _DASK_LOGGERS]
-    levels = [logger.level for logger in loggers]
-    try:
-        yield
-    finally:
-        for logger, level in zip(loggers, levels):
-            logger.setLevel(level)
-
-
-def _dask_executor(client) -> Iterator[cf.Executor]:  # type: ignore[no-untyped-def]
-    """The client's executor; on exit pending evaluations are cancelled and the teardown is quiet.
-
-    After Ctrl-C evaluations may still be under way: they are cancelled, and what dask and
-    tornado log while the client and cluster close under them (connections closed, results
-    that cannot be gathered) is not shown: nobody waits for those results any more. The
-    levels are restored by :func:`_log_levels_restored` once everything is closed.
-    """
-    pool = client.get_executor(pure=False)
-    try:
-        yield pool
-    finally:
-        for name in _DASK_LOGGERS:
-            logging.getLogger(name).setLevel(logging.CRITICAL)
-        pool.shutdown(wait=False)
+        with dask_executor(scheduler, n) as pool:
+            yield pool

@@ -3,10 +3,10 @@
 After every generation the full state of a run (population, fitness, the generator's state,
 the history, the genome cache and the failures) is written atomically to
 ``run_dir/run-<k>.json``; ``run_dir/config.json`` records the configuration, and resuming
-with another configuration is refused (see :mod:`.checkpoints`, which validates both on
-load). A resumed run continues from the last checkpoint and ends bit-identical to an
-uninterrupted one, because the generator's state is restored exactly and evaluations are
-pure functions of the genome. Wall-clock times are kept apart from the state so that they
+with another configuration is refused (see :mod:`.rundir` and :mod:`.checkpoints`, which
+validate both on load). A resumed run continues from the last checkpoint and ends
+bit-identical to an uninterrupted one, because the generator's state is restored exactly
+and evaluations are pure functions of the genome. Wall-clock times are kept apart from the state so that they
 do not break that identity.
 
 Ctrl-C stops a run between evaluations (:mod:`.interrupts`): the generation under way is
@@ -26,18 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
-from replication.casestudy.checkpoints import (
-    WORST,
-    GARun,
-    checkpoint_path,
-    genome_key,
-    load_run,
-    read_config,
-    write_config,
-)
+from replication.casestudy.checkpoints import WORST, GARun, checkpoint_path, genome_key, load_run
 from replication.casestudy.evaluate import Outcome, evaluate_batch
 from replication.casestudy.ga import GAConfig, initial_population, next_generation
 from replication.casestudy.interrupts import InterruptGuard
+from replication.casestudy.rundir import read_config, write_config
 from replication.errors import OutputError
 from replication.io.atomic import atomic_write_text
 

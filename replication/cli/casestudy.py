@@ -12,7 +12,6 @@ settings, so that a trial run never overwrites the committed paper report.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import dataclasses
 import datetime as dt
 import functools
@@ -23,7 +22,13 @@ from pathlib import Path
 from typing import Any
 
 from replication.cli.common import emit_json, positive_int, seed
-from replication.cli.outputs import DEFAULT_DIR, QUICK_DIR, finish_reports
+from replication.cli.outputs import (
+    DEFAULT_DIR,
+    QUICK_DIR,
+    finish_reports,
+    missing_dirs,
+    remove_unused_run_dir,
+)
 from replication.cli.progress import Progress
 
 EPILOG = f"""\
@@ -82,15 +87,6 @@ def _new_run_dir() -> Path:
     return run_dir
 
 
-def _missing_dirs(path: Path) -> tuple[Path, ...]:
-    """``path`` and its ancestors that do not exist yet (deepest first)."""
-    missing = []
-    while not path.exists() and path != path.parent:
-        missing.append(path)
-        path = path.parent
-    return tuple(missing)
-
-
 def _default_report_dir(config: Any, run_dir: Path) -> tuple[Path, str]:
     from replication.casestudy.ga import GAConfig
     from replication.experiments.casestudy import differences_from_paper, quick_ga_config
@@ -107,7 +103,7 @@ def _default_report_dir(config: Any, run_dir: Path) -> tuple[Path, str]:
 
 
 def _resume_config(args: argparse.Namespace, run_dir: Path) -> Any:
-    from replication.casestudy.checkpoints import CONFIG_NAME, read_config
+    from replication.casestudy.rundir import CONFIG_NAME, read_config
     from replication.errors import InputError, OutputError
 
     if run_dir.exists() and not run_dir.is_dir():
@@ -135,8 +131,9 @@ def _resume_config(args: argparse.Namespace, run_dir: Path) -> Any:
 
 def plan_casestudy(args: argparse.Namespace) -> Plan:
     """Decide and check the run directory, the settings and the reports directory."""
-    from replication.casestudy.checkpoints import checkpoints, load_run, read_config
+    from replication.casestudy.checkpoints import load_run
     from replication.casestudy.evaluate import check_executor_options
+    from replication.casestudy.rundir import checkpoints, read_config
     from replication.errors import InputError
     from replication.io.paths import check_writable_dir
 
@@ -178,21 +175,9 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
         hint += ["--output-dir", str(out)]
     return Plan(
         config=config, run_dir=run_dir, resume=args.resume, out=out, hint=shlex.join(hint),
-        note="" if args.output_dir else note, created=_missing_dirs(run_dir),
+        note="" if args.output_dir else note, created=missing_dirs(run_dir),
         quick=config == quick_ga_config(), done_generations=done,
     )  # fmt: skip
-
-
-def _remove_unused_run_dir(plan: Plan) -> None:
-    """After a failure, remove the run directories this command created if no checkpoint was made."""
-    from replication.casestudy.checkpoints import CONFIG_NAME, checkpoints
-
-    if not plan.created or checkpoints(plan.run_dir):
-        return
-    with contextlib.suppress(OSError):
-        (plan.run_dir / CONFIG_NAME).unlink(missing_ok=True)
-        for directory in plan.created:  # deepest first; stops at the first one not empty
-            directory.rmdir()
 
 
 def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
@@ -218,7 +203,7 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
                 command=args.invocation, quick=plan.quick, timing_repeats=20 if plan.quick else 100,
             )  # fmt: skip
     except KeyboardInterrupt:
-        from replication.casestudy.checkpoints import CONFIG_NAME
+        from replication.casestudy.rundir import CONFIG_NAME
 
         if (plan.run_dir / CONFIG_NAME).is_file():
             saved = f"every completed generation is saved in {plan.run_dir}; resume with: {plan.hint}"
@@ -227,7 +212,7 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
         print(f"interrupted: {saved}", file=sys.stderr)
         raise
     except BaseException:
-        _remove_unused_run_dir(plan)
+        remove_unused_run_dir(plan.run_dir, plan.created)
         raise
     save_casestudy_data(results, plan.out)
     return results, render_casestudy(plan.out)

@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import re
 from pathlib import Path
 
@@ -25,7 +26,9 @@ __all__ = [
     "QUICK_DIR",
     "checkout_readme",
     "finish_reports",
+    "missing_dirs",
     "planned_output_dir",
+    "remove_unused_run_dir",
 ]
 
 DEFAULT_DIR = "reports"
@@ -72,3 +75,28 @@ def finish_reports(out: Path) -> list[Path]:
     if readme is not None:
         written.append(update_readme(readme, out))
     return written
+
+
+def missing_dirs(path: Path) -> tuple[Path, ...]:
+    """``path`` and its ancestors that do not exist yet (deepest first)."""
+    missing = []
+    while not path.exists() and path != path.parent:
+        missing.append(path)
+        path = path.parent
+    return tuple(missing)
+
+
+def remove_unused_run_dir(run_dir: Path, created: tuple[Path, ...]) -> None:
+    """After a failure, remove the GA run directories a command created, if it made no checkpoint.
+
+    A run directory with checkpoints is kept (it can be resumed); one holding only the
+    ``config.json`` written at the start is not worth leaving behind after an error.
+    """
+    from replication.casestudy.rundir import CONFIG_NAME, checkpoints
+
+    if not created or checkpoints(run_dir):
+        return
+    with contextlib.suppress(OSError):
+        (run_dir / CONFIG_NAME).unlink(missing_ok=True)
+        for directory in created:  # deepest first; stops at the first one not empty
+            directory.rmdir()
