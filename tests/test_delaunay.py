@@ -199,7 +199,7 @@ def test_two_blocks_are_exact_and_independent_of_the_thread_count(two_block_clou
     local = np.searchsorted(distinct, serial.triangles)
     assert_valid_delaunay(uv[distinct], local, exact="compiled")
     assert np.array_equal(serial.neighbors, triangle_neighbors(serial.triangles))
-    assert serial.blocks == (1 if name == "three columns" else 2)  # a collinear block: one block
+    assert (serial.blocks == 1) == (name == "three columns")  # a collinear block: one block
     if name == "random":  # general position: the unique Delaunay triangulation, as Qhull's
         assert _triangle_set(serial.triangles) == _triangle_set(Delaunay(uv).simplices)
 
@@ -207,9 +207,10 @@ def test_two_blocks_are_exact_and_independent_of_the_thread_count(two_block_clou
 def test_one_and_two_blocks_agree_in_general_position(two_block_clouds):
     uv = two_block_clouds["random"]
     one = _triangulate.triangulate(uv, blocks=1)
-    two = _triangulate.triangulate(uv, blocks=2)
-    assert (one.blocks, two.blocks) == (1, 2)
-    assert _triangle_set(one.triangles) == _triangle_set(two.triangles)
+    for blocks in (2, 4, 8):
+        many = _triangulate.triangulate(uv, blocks=blocks)
+        assert (one.blocks, many.blocks) == (1, blocks)
+        assert _triangle_set(one.triangles) == _triangle_set(many.triangles)
 
 
 @pytest.mark.parametrize("backend", ["sweephull", "scipy"])
@@ -237,8 +238,8 @@ def test_unknown_backend():
 def test_sweep_failure_falls_back_to_qhull(monkeypatch):
     """If rounding ever defeats the sweep, Qhull triangulates and the result says so."""
 
-    def failing(points, axes, blocks):
-        return _triangulate._failed(np.int32, _sweephull.STATUS_SKIPPED, blocks)
+    def failing(points, axes, levels):
+        return _triangulate._failed(np.int32, _sweephull.STATUS_SKIPPED, 1 << levels)
 
     monkeypatch.setattr(_triangulate, "_triangulate", failing)
     uv = np.random.default_rng(0).random((30, 2))
@@ -251,16 +252,16 @@ def test_a_failed_block_is_retried_as_one_block(monkeypatch):
     calls = []
     original = _triangulate._triangulate
 
-    def first_fails(points, axes, blocks):
-        calls.append(blocks)
-        if blocks == 2:
-            return _triangulate._failed(np.int32, _sweephull.STATUS_SKIPPED, blocks)
-        return original(points, axes, blocks)
+    def first_fails(points, axes, levels):
+        calls.append(levels)
+        if levels:
+            return _triangulate._failed(np.int32, _sweephull.STATUS_SKIPPED, 1 << levels)
+        return original(points, axes, levels)
 
     monkeypatch.setattr(_triangulate, "_triangulate", first_fails)
     uv = np.random.default_rng(1).random((_triangulate.PARALLEL_MIN, 2))
     result = _triangulate.triangulate(uv)
-    assert calls == [2, 1] and result.status == _sweephull.STATUS_OK and result.blocks == 1
+    assert calls == [1, 0] and result.status == _sweephull.STATUS_OK and result.blocks == 1
 
 
 def test_unused_point_is_an_error_not_silent(monkeypatch):

@@ -1,7 +1,9 @@
 """Merging two Delaunay triangulations, and the final compaction of the shared arrays (numba).
 
-The parallel triangulator (:mod:`._triangulate`) cuts the plane by a vertical line,
-triangulates the two sides at the same time (:func:`._sweephull.sweep`) and joins them here:
+The parallel triangulator (:mod:`._triangulate`) cuts the cloud into blocks by a k-d tree,
+triangulates the blocks at the same time (:func:`._sweephull.sweep`) and joins sibling blocks
+here, up the tree; a horizontal cut is handled in a frame turned by -90 degrees, where it is
+vertical (orientations do not change under rotation):
 
 1. **Bridge.** The lower common tangent of the two convex hulls is found by the classical
    walk (both hulls are kept as linked cycles). Among collinear candidates the walk stops at
@@ -113,30 +115,43 @@ def _flip_all(stack, top, xy, tri, he, hull_tri):
         top += 4
 
 
+@njit(cache=True, inline="always")
+def _keys(xy, v, horizontal):
+    """Coordinates in the frame where the cut is vertical (turned by -90 degrees if horizontal)."""
+    if horizontal:
+        return xy[v, 1], -xy[v, 0]
+    return xy[v, 0], xy[v, 1]
+
+
 @njit(cache=True, nogil=True)
-def merge(xy, tri, he, hull, left, right, slots):
-    """Join the triangulations of two vertically separated blocks (see the module notes).
+def merge(xy, tri, he, hull, left, right, slots, horizontal):
+    """Join the triangulations of two blocks separated by a cut (see the module notes).
 
     ``hull`` holds the (next, previous, half-edge) rows of the hull table; ``left`` and
-    ``right`` are hull vertices of the blocks; every left point has a smaller x than every
-    right point. New triangles take the slots ``slots[0], slots[1], ...``. Returns
-    ``(slots used, a hull vertex of the union)``.
+    ``right`` are hull vertices of the blocks. Every left point has a smaller x than every
+    right point or, with ``horizontal``, a smaller y (the bottom block is the left one: the
+    frame is turned by -90 degrees, which keeps orientations). New triangles take the slots
+    ``slots[0], slots[1], ...``. Returns ``(slots used, a hull vertex of the union)``.
     """
     hull_next = hull[0]
     hull_prev = hull[1]
     hull_tri = hull[2]
     # start the bridge walk from the rightmost-lowest left and leftmost-lowest right vertex
     l = left
+    la, lb_ = _keys(xy, l, horizontal)
     v = hull_next[left]
     while v != left:
-        if xy[v, 0] > xy[l, 0] or (xy[v, 0] == xy[l, 0] and xy[v, 1] < xy[l, 1]):
-            l = v
+        a, b = _keys(xy, v, horizontal)
+        if a > la or (a == la and b < lb_):
+            l, la, lb_ = v, a, b
         v = hull_next[v]
     r = right
+    ra, rb_ = _keys(xy, r, horizontal)
     v = hull_next[right]
     while v != right:
-        if xy[v, 0] < xy[r, 0] or (xy[v, 0] == xy[r, 0] and xy[v, 1] < xy[r, 1]):
-            r = v
+        a, b = _keys(xy, v, horizontal)
+        if a < ra or (a == ra and b < rb_):
+            r, ra, rb_ = v, a, b
         v = hull_next[v]
     moved = True
     while moved:

@@ -20,48 +20,62 @@ from replication.surfaces.cloud import as_cloud
 __all__ = ["column_spreads", "validated_cloud"]
 
 _BLOCK = 1024
+#: Clouds of at least this many points are summed in ``_CHUNKS`` pieces, on several threads.
+_PARALLEL_MIN = 200_000
+_CHUNKS = 4
 
 
 @njit(cache=True, nogil=True)
-def _spreads(points):
-    n, k = points.shape
-    total = np.zeros(k)
+def _sums(points, lo, hi, mean, squares, out):
+    """Column sums of rows lo..hi-1 (of squared deviations from ``mean`` with ``squares``)."""
+    k = points.shape[1]
     part = np.zeros(k)
-    finite = True
-    for i in range(n):
-        for c in range(k):
-            part[c] += points[i, c]
-        if (i + 1) % _BLOCK == 0:
-            for c in range(k):
-                total[c] += part[c]
-                part[c] = 0.0
-    mean = np.empty(k)
     for c in range(k):
-        mean[c] = (total[c] + part[c]) / n
-        finite = finite and np.isfinite(mean[c])
-    total[:] = 0.0
-    part[:] = 0.0
-    for i in range(n):
+        out[c] = 0.0
+    for i in range(lo, hi):
         for c in range(k):
-            d = points[i, c] - mean[c]
-            part[c] += d * d
-        if (i + 1) % _BLOCK == 0:
+            if squares:
+                d = points[i, c] - mean[c]
+                part[c] += d * d
+            else:
+                part[c] += points[i, c]
+        if (i - lo + 1) % _BLOCK == 0:
             for c in range(k):
-                total[c] += part[c]
+                out[c] += part[c]
                 part[c] = 0.0
-    out = np.empty(k)
     for c in range(k):
-        out[c] = np.sqrt((total[c] + part[c]) / n)
-    return out, finite
+        out[c] += part[c]
 
 
 def column_spreads(points: np.ndarray) -> tuple[np.ndarray, bool]:
     """Population standard deviation of each column of a C-contiguous float64 array.
 
     Returns the spreads and whether the column means are finite (False when a coordinate is
-    NaN or infinite, or their sum overflows).
+    NaN or infinite, or their sum overflows). Large arrays are summed in a fixed number of
+    pieces whose sums are added in order, on several threads: the result does not depend on
+    the thread count.
     """
-    return _spreads(points)
+    from replication.surfaces._threads import run
+
+    n, k = points.shape
+    chunks = _CHUNKS if n >= _PARALLEL_MIN else 1
+    edges = [n * c // chunks for c in range(chunks + 1)]
+    out = np.zeros((chunks, k))
+    mean = np.zeros(k)
+
+    def summed(squares: bool) -> np.ndarray:
+        def piece(c: int):
+            return lambda: _sums(points, edges[c], edges[c + 1], mean, squares, out[c])
+
+        run([piece(c) for c in range(chunks)])
+        total = out[0].copy()
+        for c in range(1, chunks):
+            total += out[c]
+        return total
+
+    mean[:] = summed(False) / n
+    finite = bool(np.all(np.isfinite(mean)))
+    return np.sqrt(summed(True) / n), finite
 
 
 def validated_cloud(points: ArrayLike) -> tuple[np.ndarray, tuple[float, float, float]]:
@@ -76,7 +90,7 @@ def validated_cloud(points: ArrayLike) -> tuple[np.ndarray, tuple[float, float, 
     if cloud is None or cloud.ndim != 2 or cloud.shape[1] != 3 or cloud.shape[0] == 0:
         cloud = as_cloud(points)  # the checks, with their messages
     cloud = np.ascontiguousarray(cloud)
-    values, finite = _spreads(cloud)
+    values, finite = column_spreads(cloud)
     if not finite:
         cloud = as_cloud(cloud)  # names NaN or infinite rows; finite coordinates pass
     spreads = (float(values[0]), float(values[1]), float(values[2]))

@@ -55,7 +55,7 @@ def _angle_key(dx, dy, mask):
     return int(angle * 0.25 * (mask + 1)) & mask
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def legalize(start, xy, tri, he, hull_tri, stack):
     """Flip edges opposite a newly inserted point until all are locally Delaunay.
 
@@ -102,16 +102,14 @@ def legalize(start, xy, tri, he, hull_tri, stack):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def seed_triangle(pts, ua, va, idx):
-    """An empty-circle seed triangle of the points ``idx`` of (u, v) and its circumcentre.
+def seed_triangle(xy):
+    """An empty-circle seed triangle of the points ``xy`` (n, 2) and its circumcentre.
 
-    ``u`` and ``v`` are the columns ``ua`` and ``va`` of ``pts``.
-
-    Returns ``(i0, i1, i2, cx, cy)`` with positions into ``idx``, counter-clockwise; the
-    positions are -1 when the points are collinear (no triangle exists). Duplicated positions
-    are allowed (a point's duplicate is never chosen as its neighbour).
+    Returns ``(i0, i1, i2, cx, cy)``, counter-clockwise; the indices are -1 when the points
+    are collinear (no triangle exists). Repeated positions are allowed (a point's duplicate
+    is never chosen as its neighbour).
     """
-    n = idx.shape[0]
+    n = xy.shape[0]
     if n < 3:
         return -1, -1, -1, 0.0, 0.0
     lo_x = np.inf
@@ -119,31 +117,27 @@ def seed_triangle(pts, ua, va, idx):
     lo_y = np.inf
     hi_y = -np.inf
     for k in range(n):
-        px = pts[idx[k], ua]
-        py = pts[idx[k], va]
-        lo_x = min(lo_x, px)
-        hi_x = max(hi_x, px)
-        lo_y = min(lo_y, py)
-        hi_y = max(hi_y, py)
+        lo_x = min(lo_x, xy[k, 0])
+        hi_x = max(hi_x, xy[k, 0])
+        lo_y = min(lo_y, xy[k, 1])
+        hi_y = max(hi_y, xy[k, 1])
     cx = 0.5 * (lo_x + hi_x)
     cy = 0.5 * (lo_y + hi_y)
     i0 = 0
     best = np.inf
     for k in range(n):
-        d = (pts[idx[k], ua] - cx) ** 2 + (pts[idx[k], va] - cy) ** 2
+        d = (xy[k, 0] - cx) ** 2 + (xy[k, 1] - cy) ** 2
         if d < best:
             best = d
             i0 = k
-    x0 = pts[idx[i0], ua]
-    y0 = pts[idx[i0], va]
+    x0 = xy[i0, 0]
+    y0 = xy[i0, 1]
     i1 = -1
     best = np.inf
     for k in range(n):
-        px = pts[idx[k], ua]
-        py = pts[idx[k], va]
-        if px == x0 and py == y0:
+        if xy[k, 0] == x0 and xy[k, 1] == y0:
             continue
-        d = (px - x0) ** 2 + (py - y0) ** 2
+        d = (xy[k, 0] - x0) ** 2 + (xy[k, 1] - y0) ** 2
         if d < best:
             best = d
             i1 = k
@@ -152,10 +146,10 @@ def seed_triangle(pts, ua, va, idx):
     # The nearest-neighbour edge i0-i1 is Delaunay; complete it on the side that has points
     # with the circle whose centre offset along the left normal is smallest (empty circle).
     for _side in range(2):
-        ax = pts[idx[i0], ua]
-        ay = pts[idx[i0], va]
-        bx = pts[idx[i1], ua]
-        by = pts[idx[i1], va]
+        ax = xy[i0, 0]
+        ay = xy[i0, 1]
+        bx = xy[i1, 0]
+        by = xy[i1, 1]
         mx = 0.5 * (ax + bx)
         my = 0.5 * (ay + by)
         nx = -(by - ay)
@@ -164,8 +158,8 @@ def seed_triangle(pts, ua, va, idx):
         i2 = -1
         best = np.inf
         for k in range(n):
-            px = pts[idx[k], ua]
-            py = pts[idx[k], va]
+            px = xy[k, 0]
+            py = xy[k, 1]
             if orient(ax, ay, bx, by, px, py) <= 0.0:
                 continue
             qx = px - mx
@@ -178,8 +172,8 @@ def seed_triangle(pts, ua, va, idx):
                 best = offset
                 i2 = k
         if i2 >= 0:
-            ex = pts[idx[i2], ua] - ax
-            ey = pts[idx[i2], va] - ay
+            ex = xy[i2, 0] - ax
+            ey = xy[i2, 1] - ay
             dx = bx - ax
             dy = by - ay
             bl = dx * dx + dy * dy

@@ -165,21 +165,24 @@ class Grid:
 def grid_depths(surface: Surface, shape: tuple[int, int]) -> Grid:
     """Interpolate an ADT-triangulated cloud linearly onto a uniform grid over its bounding box.
 
-    Nodes outside the convex hull take the depth of the nearest vertex.
+    Nodes outside the convex hull take the depth of the nearest vertex (the smallest vertex
+    index among equally near ones). Point location walks the surface's own triangle
+    adjacency, and the nearest vertex of an outside node is found by a greedy walk on the
+    Delaunay triangulation from where the node's walk left the hull.
     """
-    from scipy.spatial import cKDTree
-
     uv = surface.projected()
     depth = surface.points[:, surface.depth_axis]
     lo, hi = uv.min(axis=0), uv.max(axis=0)
     u = np.linspace(lo[0], hi[0], shape[0])
     v = np.linspace(lo[1], hi[1], shape[1])
-    nodes = np.stack(np.meshgrid(u, v, indexing="ij"), axis=-1).reshape(-1, 2)
-    values = interpolate_linear(uv, surface.triangles, depth, nodes)
-    outside = np.isnan(values)
-    if outside.any():
-        _, nearest = cKDTree(uv).query(nodes[outside])
-        values[outside] = depth[nearest]
+    nodes = np.empty((shape[0], shape[1], 2))
+    nodes[..., 0] = u[:, None]
+    nodes[..., 1] = v[None, :]
+    nodes = nodes.reshape(-1, 2)
+    found, values = interpolate_linear(
+        uv, surface.triangles, depth, nodes, neighbors=surface.neighbors, nearest_outside=True, located=True
+    )
+    outside = found < 0
     return Grid(u=u, v=v, depth=values.reshape(shape), filled=outside.reshape(shape))
 
 
