@@ -12,7 +12,7 @@ from scipy.spatial import Delaunay
 
 from geometry import assert_valid_delaunay, orient_q
 from replication.errors import DegenerateInputError, InputError
-from replication.surfaces import _sweephull, _triangulate, delaunay
+from replication.surfaces import _partition, _sweephull, _triangulate, delaunay
 from replication.surfaces.delaunay import delaunay_2d, planar_delaunay
 from replication.surfaces.duplicates import group_positions, groups_from_pairs
 from replication.surfaces.interpolate import triangle_neighbors
@@ -182,7 +182,7 @@ def two_block_clouds():
 @pytest.mark.parametrize("name", ["random", "lattice", "co-circular", "three columns"])
 def test_two_blocks_are_exact_and_independent_of_the_thread_count(two_block_clouds, name):
     uv = two_block_clouds[name]
-    assert uv.shape[0] >= _triangulate.PARALLEL_MIN
+    assert uv.shape[0] >= _partition.PARALLEL_MIN
     threads = numba.get_num_threads()
     try:
         numba.set_num_threads(1)
@@ -238,10 +238,10 @@ def test_unknown_backend():
 def test_sweep_failure_falls_back_to_qhull(monkeypatch):
     """If rounding ever defeats the sweep, Qhull triangulates and the result says so."""
 
-    def failing(points, axes, levels):
-        return _triangulate._failed(np.int32, _sweephull.STATUS_SKIPPED, 1 << levels)
+    def failing(points, axes):
+        return _triangulate._failed(np.int32, _sweephull.STATUS_SKIPPED, 1)
 
-    monkeypatch.setattr(_triangulate, "_triangulate", failing)
+    monkeypatch.setattr(_triangulate, "triangulate", failing)
     uv = np.random.default_rng(0).random((30, 2))
     triangles, used = delaunay_2d(uv)
     assert used == "scipy"
@@ -259,7 +259,7 @@ def test_a_failed_block_is_retried_as_one_block(monkeypatch):
         return original(points, axes, levels)
 
     monkeypatch.setattr(_triangulate, "_triangulate", first_fails)
-    uv = np.random.default_rng(1).random((_triangulate.PARALLEL_MIN, 2))
+    uv = np.random.default_rng(1).random((_partition.PARALLEL_MIN, 2))
     result = _triangulate.triangulate(uv)
     assert calls == [1, 0] and result.status == _sweephull.STATUS_OK and result.blocks == 1
 
@@ -280,3 +280,12 @@ def test_extreme_dynamic_range_is_exact_not_a_crash():
     triangles, used = delaunay_2d(uv)
     assert used == "sweephull"
     assert_valid_delaunay(uv, triangles, exact="fraction")
+
+
+def test_the_one_call_path_for_small_clouds_matches_the_general_one():
+    rng = np.random.default_rng(4)
+    for uv in (rng.random((500, 2)), np.vstack([np.indices((12, 9)).reshape(2, -1).T * 0.1] * 2)):
+        small = _triangulate.triangulate(uv)
+        general = _triangulate._triangulate(uv, (0, 1), 0)
+        for field in ("triangles", "neighbors", "hull", "duplicates", "representatives", "status"):
+            assert np.array_equal(getattr(small, field), getattr(general, field)), field

@@ -10,6 +10,8 @@ count. They also tell whether every coordinate is finite.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
@@ -47,6 +49,22 @@ def _sums(points, lo, hi, mean, squares, out):
         out[c] += part[c]
 
 
+@njit(cache=True, nogil=True)
+def _small(points, out):
+    """Spreads of a small array in one call; returns whether the means are finite."""
+    k = points.shape[1]
+    mean = np.zeros(k)
+    _sums(points, 0, points.shape[0], mean, False, out)
+    finite = True
+    for c in range(k):
+        mean[c] = out[c] / points.shape[0]
+        finite = finite and np.isfinite(mean[c])
+    _sums(points, 0, points.shape[0], mean, True, out)
+    for c in range(k):
+        out[c] = np.sqrt(out[c] / points.shape[0])
+    return finite
+
+
 def column_spreads(points: np.ndarray) -> tuple[np.ndarray, bool]:
     """Population standard deviation of each column of a C-contiguous float64 array.
 
@@ -58,7 +76,10 @@ def column_spreads(points: np.ndarray) -> tuple[np.ndarray, bool]:
     from replication.surfaces._threads import run
 
     n, k = points.shape
-    chunks = _CHUNKS if n >= _PARALLEL_MIN else 1
+    if n < _PARALLEL_MIN:
+        out = np.empty(k)
+        return out, _small(points, out)
+    chunks = _CHUNKS
     edges = [n * c // chunks for c in range(chunks + 1)]
     out = np.zeros((chunks, k))
     mean = np.zeros(k)
@@ -94,7 +115,7 @@ def validated_cloud(points: ArrayLike) -> tuple[np.ndarray, tuple[float, float, 
     if not finite:
         cloud = as_cloud(cloud)  # names NaN or infinite rows; finite coordinates pass
     spreads = (float(values[0]), float(values[1]), float(values[2]))
-    if not all(np.isfinite(spreads)):
+    if not all(math.isfinite(s) for s in spreads):
         raise InputError(
             f"coordinates too large: their standard deviations {spreads} overflow float64; rescale the cloud"
         )

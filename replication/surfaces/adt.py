@@ -21,6 +21,7 @@ Choices where the paper is silent, documented here and tested:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Literal
 
@@ -96,16 +97,19 @@ def select_depth_axis(
     -----
     Paper eq. 7 (min or max) and eq. 8 (ties: Z first, then Y).
     """
-    v = np.asarray(spreads, dtype=np.float64)
-    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.any(v < 0):
+    try:
+        v = [float(s) for s in spreads]  # type: ignore[union-attr]
+    except (TypeError, ValueError):
+        v = []
+    if len(v) != 3 or not all(math.isfinite(s) and s >= 0 for s in v):
         raise InputError(f"spreads must be 3 finite non-negative numbers, got {spreads!r}")
     if rule not in ("min", "max"):
         raise InputError(f"depth rule must be 'min' or 'max', got {rule!r}")
     if not tie_rtol >= 0:
         raise InputError(f"tie tolerance must be non-negative, got {tie_rtol=}")
-    extreme = v.min() if rule == "min" else v.max()
-    tied = np.abs(v - extreme) <= tie_rtol * v.max()
-    return next(axis for axis in (2, 1, 0) if tied[axis])
+    extreme = min(v) if rule == "min" else max(v)
+    scale = tie_rtol * max(v)
+    return next(axis for axis in (2, 1, 0) if abs(v[axis] - extreme) <= scale)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
