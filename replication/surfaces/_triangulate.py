@@ -45,6 +45,8 @@ class Triangulation:
     counter-clockwise; ``duplicates`` and ``representatives`` pair every input point that
     repeats an earlier position with the first point at that position (sorted by the
     duplicate's index). ``status`` is a :mod:`._sweephull` status; ``blocks`` their number.
+    ``order`` lists the distinct points (input indices) block by block, each block in sweep
+    order: a spatially coherent numbering for kernels that visit every triangle.
     """
 
     triangles: np.ndarray
@@ -54,6 +56,7 @@ class Triangulation:
     representatives: np.ndarray
     status: int
     blocks: int
+    order: np.ndarray | None = None
 
 
 class _Join:
@@ -174,6 +177,10 @@ def _triangulate(points: np.ndarray, axes: tuple[int, int], levels: int) -> Tria
         )
     else:
         _mergehull.finish(tri, he, inp, 0, end)
+    if all(p.count == p.idx.shape[0] for p in parts):
+        order = inp  # no duplicates: every position holds a point
+    else:
+        order = np.concatenate([inp[p.off : p.off + p.count] for p in parts])
     dup = np.concatenate([p.dup for p in parts]) if levels else parts[0].dup
     rep = np.concatenate([p.rep for p in parts]) if levels else parts[0].rep
     if dup.shape[0] > 1:
@@ -187,4 +194,5 @@ def _triangulate(points: np.ndarray, axes: tuple[int, int], levels: int) -> Tria
         representatives=rep,
         status=_sweephull.STATUS_OK,
         blocks=blocks,
+        order=order,
     )

@@ -157,6 +157,10 @@ class Surface:
         The vertex each input point became (the merge record).
     backend : str
         Triangulation backend that produced the triangles.
+    vertex_order : ndarray of int32 or None
+        The vertices in the triangulator's storage order (block by block, each in sweep
+        order): a spatially coherent numbering that kernels visiting every triangle use for
+        memory locality (None when the backend has none).
     """
 
     points: np.ndarray
@@ -170,6 +174,7 @@ class Surface:
     duplicate_policy: str
     vertex_of_input: np.ndarray
     backend: str
+    vertex_order: np.ndarray | None = field(default=None, repr=False)
     _input_size: int = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -177,6 +182,8 @@ class Surface:
         object.__setattr__(self, "triangles", _readonly(self.triangles))
         object.__setattr__(self, "neighbors", _readonly(self.neighbors))
         object.__setattr__(self, "hull", _readonly(self.hull))
+        if self.vertex_order is not None:
+            object.__setattr__(self, "vertex_order", _readonly(self.vertex_order))
         object.__setattr__(self, "vertex_of_input", _readonly(self.vertex_of_input))
         object.__setattr__(self, "_input_size", int(self.vertex_of_input.shape[0]))
 
@@ -291,7 +298,7 @@ def adt(
     if planar.duplicates.size == 0:  # every point is a vertex, in input order
         vertices = cloud.copy()
         vertex_of_input = np.arange(n, dtype=planar.triangles.dtype)
-        triangles, hull = planar.triangles, planar.hull
+        triangles, hull, order = planar.triangles, planar.hull, planar.order
     else:
         group, first = groups_from_pairs(n, planar.duplicates, planar.representatives)
         merge = apply_policy(
@@ -301,6 +308,7 @@ def adt(
         vertices[:, axis] = merge.depth
         vertex_of_input = group
         triangles, hull = group[planar.triangles], group[planar.hull]
+        order = None if planar.order is None else group[planar.order]
     return Surface(
         points=vertices,
         triangles=triangles,
@@ -313,4 +321,5 @@ def adt(
         duplicate_policy=duplicates,
         vertex_of_input=vertex_of_input,
         backend=used,
+        vertex_order=order,
     )

@@ -26,7 +26,7 @@ from numba import njit
 
 from replication.surfaces._predicates import orient
 
-__all__ = ["triangle_neighbors", "locate", "interpolate_linear", "nearest_vertices"]
+__all__ = ["triangle_neighbors", "locate", "interpolate_linear", "nearest_vertices", "fill_nearest"]
 
 
 def triangle_neighbors(triangles: np.ndarray) -> np.ndarray:
@@ -66,6 +66,27 @@ def _inside(xy, tri, t, qx, qy):
 
 
 @njit(cache=True)
+def _walk_one(xy, tri, nbr, t, px, py, max_steps):
+    """Visibility walk from triangle t towards (px, py): ``(state, triangle)``; state 1: the
+    triangle contains the point, 2: the walk left through the boundary there, 0: out of steps."""
+    for step in range(max_steps):
+        moved = False
+        for kk in range(3):
+            k = (kk + step) % 3  # rotate the edge order so the walk cannot cycle for long
+            a = tri[t, k]
+            b = tri[t, (k + 1) % 3]
+            if orient(xy[a, 0], xy[a, 1], xy[b, 0], xy[b, 1], px, py) < 0.0:
+                if nbr[t, k] == -1:
+                    return 2, t
+                t = nbr[t, k]
+                moved = True
+                break
+        if not moved:
+            return 1, t
+    return 0, t
+
+
+@njit(cache=True)
 def _locate(xy, tri, nbr, queries, exhaustive, found, left):
     """Triangle of each query in ``found`` (-1 outside); ``left``: the triangle it left through."""
     m = tri.shape[0]
@@ -74,37 +95,38 @@ def _locate(xy, tri, nbr, queries, exhaustive, found, left):
     for i in range(queries.shape[0]):
         px = queries[i, 0]
         py = queries[i, 1]
-        state = 0  # 0: walking, 1: found, 2: left through the boundary
-        found[i] = -1
-        left[i] = -1
-        for step in range(max_steps):
-            moved = False
-            for kk in range(3):
-                k = (kk + step) % 3  # rotate the edge order so the walk cannot cycle for long
-                a = tri[t, k]
-                b = tri[t, (k + 1) % 3]
-                if orient(xy[a, 0], xy[a, 1], xy[b, 0], xy[b, 1], px, py) < 0.0:
-                    if nbr[t, k] == -1:
-                        state = 2
-                    else:
-                        t = nbr[t, k]
-                        moved = True
-                    break
-            if state == 2:
-                left[i] = t
-                break
-            if not moved:
-                state = 1
-                break
-        if state == 1:
-            found[i] = t
-        elif state == 0 or exhaustive:
+        state, t = _walk_one(xy, tri, nbr, t, px, py, max_steps)
+        found[i] = t if state == 1 else -1
+        left[i] = t if state == 2 else -1
+        if state == 0 or (state == 2 and exhaustive):
             # the walk ran out of steps, or the mesh may be non-convex: search every triangle
             for s in range(m):
                 if _inside(xy, tri, s, px, py):
                     found[i] = s
+                    left[i] = -1
                     t = s
                     break
+
+
+@njit(cache=True)
+def _exits(xy, tri, nbr, queries, start, left):
+    """For queries outside a convex triangulation: the boundary triangle each walk leaves
+    through (-1 if the query is inside after all). Each walk starts from triangle
+    ``start[i]`` or, when it is nearer, from where the previous query's walk ended."""
+    max_steps = 4 * tri.shape[0] + 16
+    previous = -1
+    for i in range(queries.shape[0]):
+        px = queries[i, 0]
+        py = queries[i, 1]
+        t = start[i]
+        if previous >= 0:
+            a = tri[previous, 0]
+            b = tri[t, 0]
+            if (xy[a, 0] - px) ** 2 + (xy[a, 1] - py) ** 2 < (xy[b, 0] - px) ** 2 + (xy[b, 1] - py) ** 2:
+                t = previous
+        state, t = _walk_one(xy, tri, nbr, t, px, py, max_steps)
+        left[i] = t if state == 2 else -1
+        previous = t
 
 
 @njit(cache=True)
@@ -150,11 +172,11 @@ def _ring(tri, nbr, t, v, around, where):
 
 
 @njit(cache=True)
-def _nearest(xy, tri, nbr, queries, start, out):
+def _nearest(xy, tri, nbr, queries, start, ids, out):
     """Nearest vertex of each query by a greedy walk on the triangulation from triangle ``start[i]``.
 
-    Among vertices at the same distance the smallest index wins (they are connected by
-    Delaunay edges, so a search over them finds it).
+    Among vertices at the same distance the one of smallest ``ids`` wins (they are connected
+    by Delaunay edges, so a search over them finds it).
     """
     around = np.empty(2 * tri.shape[0] + 6, dtype=tri.dtype)
     where = np.empty(2 * tri.shape[0] + 6, dtype=tri.dtype)
@@ -208,7 +230,8 @@ def _nearest(xy, tri, nbr, queries, start, out):
                 todo[top] = w
                 todo_t[top] = where[k]
                 top += 1
-                answer = min(answer, w)
+                if ids[w] < ids[answer]:
+                    answer = w
         out[i] = answer
 
 
@@ -250,6 +273,31 @@ def _walk(uv, triangles, queries, neighbors, convex):
     return found, left, triangles, nbr, queries, xy
 
 
+def fill_nearest(
+    uv: np.ndarray,
+    triangles: np.ndarray,
+    neighbors: np.ndarray,
+    queries: np.ndarray,
+    start: np.ndarray,
+    ids: np.ndarray | None = None,
+) -> np.ndarray:
+    """Nearest vertex of queries outside a Delaunay triangulation: a walk from a triangle
+    ``start[i]`` near each query to the boundary, then the greedy walk of
+    :func:`nearest_vertices` (smallest index, or smallest ``ids``, among equally near
+    vertices)."""
+    queries = np.ascontiguousarray(np.asarray(queries, dtype=np.float64).reshape(-1, 2))
+    xy = np.ascontiguousarray(uv, dtype=np.float64)
+    triangles, neighbors = _int32(triangles), _int32(neighbors)
+    left = np.empty(queries.shape[0], dtype=np.int32)
+    _exits(xy, triangles, neighbors, queries, _int32(start), left)
+    if np.any(left < 0):
+        raise ValueError("fill_nearest: a query lies inside the triangulation")
+    out = np.empty(queries.shape[0], dtype=np.int32)
+    ids = np.arange(xy.shape[0], dtype=np.int32) if ids is None else _int32(ids)
+    _nearest(xy, triangles, neighbors, queries, left, ids, out)
+    return out
+
+
 def nearest_vertices(
     uv: np.ndarray, triangles: np.ndarray, neighbors: np.ndarray, queries: np.ndarray, start: np.ndarray
 ) -> np.ndarray:
@@ -258,7 +306,8 @@ def nearest_vertices(
     queries = np.ascontiguousarray(np.asarray(queries, dtype=np.float64).reshape(-1, 2))
     out = np.empty(queries.shape[0], dtype=np.int32)
     xy = np.ascontiguousarray(uv, dtype=np.float64)
-    _nearest(xy, _int32(triangles), _int32(neighbors), queries, _int32(start), out)
+    ids = np.arange(xy.shape[0], dtype=np.int32)
+    _nearest(xy, _int32(triangles), _int32(neighbors), queries, _int32(start), ids, out)
     return out
 
 
@@ -318,6 +367,7 @@ def interpolate_linear(
         outside = np.flatnonzero(found < 0)
         if outside.size:
             near = np.empty(outside.size, dtype=np.int32)
-            _nearest(xy, triangles, nbr, queries[outside], left[outside], near)
+            ids = np.arange(xy.shape[0], dtype=np.int32)
+            _nearest(xy, triangles, nbr, queries[outside], left[outside], ids, near)
             out[outside] = values[near]
     return (found, out) if located else out

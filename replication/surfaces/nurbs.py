@@ -50,7 +50,6 @@ from replication.surfaces.adt import AXES, DEFAULT_TIE_RTOL, Surface, adt
 from replication.surfaces.cloud import as_cloud
 from replication.surfaces.delaunay import Backend
 from replication.surfaces.duplicates import DuplicatePolicy
-from replication.surfaces.interpolate import interpolate_linear
 
 if TYPE_CHECKING:  # pragma: no cover
     from geomdl.NURBS import Surface as GeomdlSurface
@@ -114,11 +113,10 @@ def control_net_shape(n: int, aspect: float, degree: int = 2, *, max_ratio: floa
         )
     target = math.log(aspect)
     best: tuple[float, int, int] | None = None
-    for a in range(low, n // low + 1):
-        if n % a:
-            continue
-        b = n // a
-        if b < low:
+    divisors = [d for d in range(1, math.isqrt(n) + 1) if n % d == 0]
+    pairs = sorted({(a, n // a) for d in divisors for a in (d, n // d)})  # increasing a
+    for a, b in pairs:
+        if a < low or b < low:
             continue
         distance = abs(math.log(a / b) - target)
         if distance <= math.log(max_ratio) + 1e-12 and (best is None or distance < best[0]):
@@ -166,24 +164,45 @@ def grid_depths(surface: Surface, shape: tuple[int, int]) -> Grid:
     """Interpolate an ADT-triangulated cloud linearly onto a uniform grid over its bounding box.
 
     Nodes outside the convex hull take the depth of the nearest vertex (the smallest vertex
-    index among equally near ones). Point location walks the surface's own triangle
-    adjacency, and the nearest vertex of an outside node is found by a greedy walk on the
-    Delaunay triangulation from where the node's walk left the hull.
+    index among equally near ones). The grid is filled triangle by triangle
+    (:mod:`._raster`), on the vertices relabelled in the triangulator's (spatially coherent)
+    order; the nearest vertex of an outside node is found by a walk on the surface's own
+    triangle adjacency from the triangle of the nearest inside node of its row, then a
+    greedy walk on the Delaunay triangulation (no k-d tree is built).
     """
-    uv = surface.projected()
-    depth = surface.points[:, surface.depth_axis]
-    lo, hi = uv.min(axis=0), uv.max(axis=0)
+    from replication.surfaces._raster import raster, relabel
+    from replication.surfaces.interpolate import fill_nearest
+
+    order = surface.vertex_order
+    if order is None:
+        order = np.arange(surface.n_vertices, dtype=np.int32)
+    axes = np.array([*surface.projection_axes, surface.depth_axis])
+    xy, depth, triangles = relabel(surface.points, axes, surface.triangles, order)
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
     u = np.linspace(lo[0], hi[0], shape[0])
     v = np.linspace(lo[1], hi[1], shape[1])
-    nodes = np.empty((shape[0], shape[1], 2))
-    nodes[..., 0] = u[:, None]
-    nodes[..., 1] = v[None, :]
-    nodes = nodes.reshape(-1, 2)
-    found, values = interpolate_linear(
-        uv, surface.triangles, depth, nodes, neighbors=surface.neighbors, nearest_outside=True, located=True
-    )
-    outside = found < 0
-    return Grid(u=u, v=v, depth=values.reshape(shape), filled=outside.reshape(shape))
+    owner, values = raster(xy, triangles, depth, u, v)
+    outside = owner < 0
+    rows, cols = np.nonzero(outside)
+    if rows.size:
+        start = _start_triangles(owner, rows, cols)
+        queries = np.column_stack([u[rows], v[cols]])
+        nearest = fill_nearest(xy, triangles, surface.neighbors, queries, start, ids=order)
+        values[rows, cols] = depth[nearest]
+    return Grid(u=u, v=v, depth=values, filled=outside)
+
+
+def _start_triangles(owner: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """For each outside node, the triangle of the nearest inside node of its row (of the
+    nearest row that has one): the hull is convex, so a row's inside nodes are contiguous."""
+    inside = owner >= 0
+    has = inside.any(axis=1)
+    usable = np.flatnonzero(has)
+    first = np.argmax(inside, axis=1)
+    last = owner.shape[1] - 1 - np.argmax(inside[:, ::-1], axis=1)
+    row = usable[np.clip(np.searchsorted(usable, rows), 0, usable.size - 1)]
+    col = np.where(cols < first[row], first[row], last[row])
+    return owner[row, col]
 
 
 @dataclass(frozen=True, eq=False)
@@ -371,8 +390,7 @@ def fit_nurbs(
         if triangulation.n_input != n:
             raise InputError(f"the triangulation is of {triangulation.n_input} points, the cloud has {n}")
         surface = triangulation
-    uv = surface.projected()
-    extent = np.ptp(uv, axis=0)
+    extent = np.array([np.ptp(surface.points[:, axis]) for axis in surface.projection_axes])
     if np.any(extent <= 0):
         raise DegenerateInputError(f"the projected cloud has zero extent {extent.tolist()}: no grid spans it")
     if net is None:
