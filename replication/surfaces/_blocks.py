@@ -71,7 +71,7 @@ def _dedupe(local, idx, order, keys, off, xy, inp, seeds):
     n = order.shape[0]
     dup = np.empty(16, dtype=inp.dtype)
     rep = np.empty(16, dtype=inp.dtype)
-    n_dup = 0
+    n_dup = np.int64(0)
     s0, s1, s2 = seeds[0], seeds[1], seeds[2]
     j = off
     k = 0
@@ -207,6 +207,7 @@ def single(points, ua, va):
     """A small cloud in one call: ``(status, triangles, neighbours, hull, duplicates, their
     representatives)`` (int32, input indices; see :class:`._triangulate.Triangulation`)."""
     n = points.shape[0]
+    zero = np.int64(0)  # not a literal: the kernels keep one compiled signature
     empty = np.empty(0, dtype=np.int32)
     idx = np.empty(n, dtype=np.int32)
     xy = np.empty((n, 2))
@@ -231,12 +232,12 @@ def single(points, ua, va):
     he = np.empty(3 * (2 * n - 5), dtype=np.int32)
     hull = np.empty((3, n), dtype=np.int32)
     m, n_tri, skipped, vertex, dup, rep = block(
-        local, idx, order, keys, seeds, 0, centre, xy, inp, tri, he, 0, hull
+        local, idx, order, keys, seeds, zero, centre, xy, inp, tri, he, zero, hull
     )
     ring = _mergehull.hull_cycle(vertex, hull[0])
     if skipped or n_tri != 2 * m - 2 - ring.shape[0]:  # Euler: a point is no vertex
         return _sweephull.STATUS_SKIPPED, empty.reshape(0, 3), empty.reshape(0, 3), empty, empty, empty
-    _mergehull.finish(tri, he, inp, 0, 3 * n_tri)
+    _mergehull.finish(tri, he, inp, zero, 3 * n_tri)
     out = np.empty(ring.shape[0], dtype=np.int32)
     for k in range(ring.shape[0]):
         out[k] = inp[ring[k]]

@@ -20,6 +20,7 @@ import numpy as np
 from numba import njit
 
 from replication.surfaces._predicates import orient
+from replication.surfaces._threads import frozen
 
 __all__ = ["raster", "relabel"]
 
@@ -132,6 +133,7 @@ def relabel(points: np.ndarray, axes: np.ndarray, triangles: np.ndarray, order: 
     """
     from replication.surfaces._threads import run
 
+    points, axes, triangles, order = frozen(points), frozen(axes), frozen(triangles, np.int32), frozen(order)
     m, count = order.shape[0], triangles.shape[0]
     pieces = _RUNS if count >= 100_000 else 1
     position = np.empty(points.shape[0], dtype=np.int32)

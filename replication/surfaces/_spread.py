@@ -17,6 +17,7 @@ from numba import njit
 from numpy.typing import ArrayLike
 
 from replication.errors import InputError
+from replication.surfaces._threads import frozen
 from replication.surfaces.cloud import as_cloud
 
 __all__ = ["column_spreads", "validated_cloud"]
@@ -28,19 +29,34 @@ _CHUNKS = 4
 
 
 @njit(cache=True, nogil=True)
-def _sums(points, lo, hi, mean, squares, out):
-    """Column sums of rows lo..hi-1 (of squared deviations from ``mean`` with ``squares``)."""
+def _sums(points, lo, hi, out):
+    """Column sums of rows lo..hi-1 (in blocks of ``_BLOCK`` rows)."""
     k = points.shape[1]
     part = np.zeros(k)
     for c in range(k):
         out[c] = 0.0
     for i in range(lo, hi):
         for c in range(k):
-            if squares:
-                d = points[i, c] - mean[c]
-                part[c] += d * d
-            else:
-                part[c] += points[i, c]
+            part[c] += points[i, c]
+        if (i - lo + 1) % _BLOCK == 0:
+            for c in range(k):
+                out[c] += part[c]
+                part[c] = 0.0
+    for c in range(k):
+        out[c] += part[c]
+
+
+@njit(cache=True, nogil=True)
+def _squares(points, lo, hi, mean, out):
+    """Column sums of squared deviations from ``mean`` of rows lo..hi-1 (in blocks)."""
+    k = points.shape[1]
+    part = np.zeros(k)
+    for c in range(k):
+        out[c] = 0.0
+    for i in range(lo, hi):
+        for c in range(k):
+            d = points[i, c] - mean[c]
+            part[c] += d * d
         if (i - lo + 1) % _BLOCK == 0:
             for c in range(k):
                 out[c] += part[c]
@@ -53,15 +69,17 @@ def _sums(points, lo, hi, mean, squares, out):
 def _small(points, out):
     """Spreads of a small array in one call; returns whether the means are finite."""
     k = points.shape[1]
-    mean = np.zeros(k)
-    _sums(points, 0, points.shape[0], mean, False, out)
+    n = points.shape[0]
+    zero = np.int64(0)  # not a literal: one compiled signature of the kernels
+    _sums(points, zero, n, out)
+    mean = np.empty(k)
     finite = True
     for c in range(k):
-        mean[c] = out[c] / points.shape[0]
+        mean[c] = out[c] / n
         finite = finite and np.isfinite(mean[c])
-    _sums(points, 0, points.shape[0], mean, True, out)
+    _squares(points, zero, n, mean, out)
     for c in range(k):
-        out[c] = np.sqrt(out[c] / points.shape[0])
+        out[c] = np.sqrt(out[c] / n)
     return finite
 
 
@@ -75,6 +93,7 @@ def column_spreads(points: np.ndarray) -> tuple[np.ndarray, bool]:
     """
     from replication.surfaces._threads import run
 
+    points = frozen(points)
     n, k = points.shape
     if n < _PARALLEL_MIN:
         out = np.empty(k)
@@ -86,7 +105,9 @@ def column_spreads(points: np.ndarray) -> tuple[np.ndarray, bool]:
 
     def summed(squares: bool) -> np.ndarray:
         def piece(c: int):
-            return lambda: _sums(points, edges[c], edges[c + 1], mean, squares, out[c])
+            if squares:
+                return lambda: _squares(points, edges[c], edges[c + 1], mean, out[c])
+            return lambda: _sums(points, edges[c], edges[c + 1], out[c])
 
         run([piece(c) for c in range(chunks)])
         total = out[0].copy()

@@ -13,10 +13,26 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
-__all__ = ["run", "threads"]
+import numpy as np
+
+__all__ = ["frozen", "run", "threads"]
 
 _pool: ThreadPoolExecutor | None = None
 _lock = threading.Lock()
+
+
+def frozen(a: np.ndarray, dtype=None) -> np.ndarray:
+    """``a`` as a C-contiguous read-only array (a view when it already is one).
+
+    numba compiles a separate version of a kernel for writable and read-only arrays; the
+    package's kernels take their inputs read-only (a Surface's arrays are), so each keeps
+    one compiled signature whoever calls it.
+    """
+    a = np.ascontiguousarray(a, dtype=dtype)
+    if a.flags.writeable:
+        a = a.view()
+        a.flags.writeable = False
+    return a
 
 
 def threads() -> int:

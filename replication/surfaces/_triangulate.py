@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from replication.surfaces import _blocks, _mergehull, _partition, _sweephull
+from replication.surfaces._threads import frozen
 from replication.surfaces._threads import run as _run
 
 __all__ = ["SMALL", "Triangulation", "triangulate"]
@@ -94,6 +95,7 @@ def triangulate(
         module notes). When a block cannot be swept on its own (collinear, or rounding
         defeated the sweep) the cloud is triangulated again as one block.
     """
+    points = frozen(points, np.float64)
     levels = _partition.levels(points.shape[0]) if blocks is None else int(blocks).bit_length() - 1
     if levels == 0 and 3 <= points.shape[0] <= SMALL:
         status, triangles, neighbors, hull, dup, rep = _blocks.single(points, int(axes[0]), int(axes[1]))

@@ -25,6 +25,7 @@ import numpy as np
 from numba import njit
 
 from replication.surfaces._predicates import orient
+from replication.surfaces._threads import frozen
 
 __all__ = ["triangle_neighbors", "locate", "interpolate_linear", "nearest_vertices", "fill_nearest"]
 
@@ -52,7 +53,7 @@ def triangle_neighbors(triangles: np.ndarray) -> np.ndarray:
 
 
 def _int32(a: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(a, dtype=np.int32)
+    return frozen(a, np.int32)
 
 
 @njit(cache=True)
@@ -91,7 +92,7 @@ def _locate(xy, tri, nbr, queries, exhaustive, found, left):
     """Triangle of each query in ``found`` (-1 outside); ``left``: the triangle it left through."""
     m = tri.shape[0]
     max_steps = 4 * m + 16
-    t = 0
+    t = np.int64(0)
     for i in range(queries.shape[0]):
         px = queries[i, 0]
         py = queries[i, 1]
@@ -264,11 +265,11 @@ def locate(
 
 def _walk(uv, triangles, queries, neighbors, convex):
     triangles = _int32(triangles)
-    queries = np.ascontiguousarray(np.asarray(queries, dtype=np.float64).reshape(-1, 2))
-    nbr = triangle_neighbors(triangles) if neighbors is None else _int32(neighbors)
+    queries = frozen(np.asarray(queries, dtype=np.float64).reshape(-1, 2))
+    nbr = _int32(triangle_neighbors(triangles) if neighbors is None else neighbors)
     found = np.empty(queries.shape[0], dtype=np.int32)
     left = np.empty(queries.shape[0], dtype=np.int32)
-    xy = np.ascontiguousarray(uv, dtype=np.float64)
+    xy = frozen(uv, np.float64)
     _locate(xy, triangles, nbr, queries, not convex, found, left)
     return found, left, triangles, nbr, queries, xy
 
@@ -285,16 +286,16 @@ def fill_nearest(
     ``start[i]`` near each query to the boundary, then the greedy walk of
     :func:`nearest_vertices` (smallest index, or smallest ``ids``, among equally near
     vertices)."""
-    queries = np.ascontiguousarray(np.asarray(queries, dtype=np.float64).reshape(-1, 2))
-    xy = np.ascontiguousarray(uv, dtype=np.float64)
+    queries = frozen(np.asarray(queries, dtype=np.float64).reshape(-1, 2))
+    xy = frozen(uv, np.float64)
     triangles, neighbors = _int32(triangles), _int32(neighbors)
     left = np.empty(queries.shape[0], dtype=np.int32)
     _exits(xy, triangles, neighbors, queries, _int32(start), left)
     if np.any(left < 0):
         raise ValueError("fill_nearest: a query lies inside the triangulation")
     out = np.empty(queries.shape[0], dtype=np.int32)
-    ids = np.arange(xy.shape[0], dtype=np.int32) if ids is None else _int32(ids)
-    _nearest(xy, triangles, neighbors, queries, left, ids, out)
+    ids = _int32(np.arange(xy.shape[0])) if ids is None else _int32(ids)
+    _nearest(xy, triangles, neighbors, queries, _int32(left), ids, out)
     return out
 
 
@@ -303,10 +304,10 @@ def nearest_vertices(
 ) -> np.ndarray:
     """Nearest vertex of each query (smallest index among equally near ones) on a Delaunay
     triangulation, by a greedy walk from a triangle ``start[i]`` near each query."""
-    queries = np.ascontiguousarray(np.asarray(queries, dtype=np.float64).reshape(-1, 2))
+    queries = frozen(np.asarray(queries, dtype=np.float64).reshape(-1, 2))
     out = np.empty(queries.shape[0], dtype=np.int32)
-    xy = np.ascontiguousarray(uv, dtype=np.float64)
-    ids = np.arange(xy.shape[0], dtype=np.int32)
+    xy = frozen(uv, np.float64)
+    ids = _int32(np.arange(xy.shape[0]))
     _nearest(xy, _int32(triangles), _int32(neighbors), queries, _int32(start), ids, out)
     return out
 
@@ -360,14 +361,14 @@ def interpolate_linear(
     linear interpolation (section 3.1) are both this function on the Delaunay triangulation.
     """
     found, left, triangles, nbr, queries, xy = _walk(uv, triangles, queries, neighbors, convex)
-    values = np.ascontiguousarray(values, dtype=np.float64)
+    values = frozen(values, np.float64)
     out = np.empty(queries.shape[0])
     _barycentric(xy, triangles, found, queries, values, out)
     if nearest_outside:
         outside = np.flatnonzero(found < 0)
         if outside.size:
             near = np.empty(outside.size, dtype=np.int32)
-            ids = np.arange(xy.shape[0], dtype=np.int32)
-            _nearest(xy, triangles, nbr, queries[outside], left[outside], ids, near)
+            ids = _int32(np.arange(xy.shape[0]))
+            _nearest(xy, triangles, nbr, frozen(queries[outside]), _int32(left[outside]), ids, near)
             out[outside] = values[near]
     return (found, out) if located else out
