@@ -28,7 +28,8 @@ in every report):
   nodes. Node depths are the linear interpolation of the cloud, i.e. barycentric
   interpolation on its Delaunay triangulation (the ADT surface, with the same duplicate
   policy); nodes outside the cloud's convex hull, where linear interpolation is undefined,
-  take the depth of the **nearest** cloud point, and their number is reported.
+  take the depth of the **nearest** cloud point (of equally near points, the one of smallest
+  vertex index, i.e. the first in the cloud), and their number is reported.
 * **Knots.** Clamped: ``degree + 1`` zeros, uniform interior knots, ``degree + 1`` ones.
 * **Tessellation.** Building the surface includes evaluating it on a ``50 x 50`` grid of
   parameters (``tessellation``), with geomdl (the paper-faithful reference) or with the
