@@ -34,8 +34,8 @@ def warm_up() -> None:
             adt(points, backend="scipy")  # the hash grouping
             for levels in (0, 1):  # one block (general path), and blocks with merges and partition
                 _triangulate._triangulate(frozen(points, np.float64), (0, 1), levels)
-        owner = np.full((2, 2), -1, dtype=np.int32)
-        _raster._combine(owner, np.zeros((2, 2)), owner.copy(), np.zeros((2, 2)))
+        owners = tuple(np.full((2, 2), -1, dtype=np.int32) for _ in range(_raster._RUNS))
+        _raster._combine(owners, tuple(np.zeros((2, 2)) for _ in range(_raster._RUNS)), 0, 2)
         fit_nurbs(cloud, evaluator="fast", triangulation=surface, tessellation=(4, 4))
         uv = surface.projected()
         depth = surface.points[:, surface.depth_axis]

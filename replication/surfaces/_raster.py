@@ -77,13 +77,15 @@ def _raster(xy, tri, values, u, v, lo, hi, owner, out):
 
 
 @njit(cache=True, nogil=True)
-def _combine(owner, out, later, values):
-    """Nodes that no earlier run claimed take a later run's triangle and value."""
-    for i in range(owner.shape[0]):
-        for j in range(owner.shape[1]):
-            if owner[i, j] < 0 and later[i, j] >= 0:
-                owner[i, j] = later[i, j]
-                out[i, j] = values[i, j]
+def _combine(owners, outs, lo, hi):
+    """Rows lo..hi-1: a node no earlier run claimed takes the next run's triangle and value."""
+    for r in range(1, len(owners)):
+        owner, out, later, values = owners[0], outs[0], owners[r], outs[r]
+        for i in range(lo, hi):
+            for j in range(owner.shape[1]):
+                if owner[i, j] < 0 and later[i, j] >= 0:
+                    owner[i, j] = later[i, j]
+                    out[i, j] = values[i, j]
 
 
 def raster(xy: np.ndarray, tri: np.ndarray, values: np.ndarray, u: np.ndarray, v: np.ndarray):
@@ -101,19 +103,32 @@ def raster(xy: np.ndarray, tri: np.ndarray, values: np.ndarray, u: np.ndarray, v
         (lambda r=r: _raster(xy, tri, values, u, v, edges[r], edges[r + 1], owners[r], outs[r]))
         for r in range(runs)
     ])  # fmt: skip
-    for r in range(1, runs):
-        _combine(owners[0], outs[0], owners[r], outs[r])
+    if runs > 1:
+        rows = [shape[0] * r // runs for r in range(runs + 1)]
+        owned, valued = tuple(owners), tuple(outs)
+        run([(lambda r=r: _combine(owned, valued, rows[r], rows[r + 1])) for r in range(runs)])
     return owners[0], outs[0]
 
 
 @njit(cache=True, nogil=True)
-def _gather(points, axes, order, lo, hi, position, xy, values):
+def _gather(points, axes, order, lo, hi, position, xy, values, bounds):
+    """Points lo..hi-1 of ``order``; ``bounds``: their (min u, max u, min v, max v)."""
+    bounds[0] = np.inf
+    bounds[1] = -np.inf
+    bounds[2] = np.inf
+    bounds[3] = -np.inf
     for k in range(lo, hi):
         i = order[k]
         position[i] = k
-        xy[k, 0] = points[i, axes[0]]
-        xy[k, 1] = points[i, axes[1]]
+        u = points[i, axes[0]]
+        v = points[i, axes[1]]
+        xy[k, 0] = u
+        xy[k, 1] = v
         values[k] = points[i, axes[2]]
+        bounds[0] = min(bounds[0], u)
+        bounds[1] = max(bounds[1], u)
+        bounds[2] = min(bounds[2], v)
+        bounds[3] = max(bounds[3], v)
 
 
 @njit(cache=True, nogil=True)
@@ -124,8 +139,8 @@ def _renumber(triangles, position, lo, hi, tri):
 
 
 def relabel(points: np.ndarray, axes: np.ndarray, triangles: np.ndarray, order: np.ndarray):
-    """``(xy, values, tri)``: the (u, v) and depth (columns ``axes``) of vertex ``order[k]``
-    as point k, and the triangles relabelled so.
+    """``(xy, values, tri, bounds)``: the (u, v) and depth (columns ``axes``) of vertex
+    ``order[k]`` as point k, the triangles relabelled so, and (min u, max u, min v, max v).
 
     Kernels that visit every triangle then read the vertices of nearby triangles from nearby
     memory (the triangulator's order is block by block, in sweep order), which halves the
@@ -141,12 +156,12 @@ def relabel(points: np.ndarray, axes: np.ndarray, triangles: np.ndarray, order: 
     values = np.empty(m)
     tri = np.empty((count, 3), dtype=np.int32)
     cut = [m * r // pieces for r in range(pieces + 1)]
-    run(
-        [
-            (lambda r=r: _gather(points, axes, order, cut[r], cut[r + 1], position, xy, values))
-            for r in range(pieces)
-        ]
-    )
+    bounds = np.empty((pieces, 4))
+    run([
+        (lambda r=r: _gather(points, axes, order, cut[r], cut[r + 1], position, xy, values, bounds[r]))
+        for r in range(pieces)
+    ])  # fmt: skip
     cut = [count * r // pieces for r in range(pieces + 1)]
     run([(lambda r=r: _renumber(triangles, position, cut[r], cut[r + 1], tri)) for r in range(pieces)])
-    return xy, values, tri
+    lo, hi = bounds.min(axis=0), bounds.max(axis=0)
+    return xy, values, tri, (float(lo[0]), float(hi[1]), float(lo[2]), float(hi[3]))

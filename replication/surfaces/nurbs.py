@@ -47,8 +47,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from replication.errors import DegenerateInputError, InputError
+from replication.surfaces._spread import validated_cloud
 from replication.surfaces.adt import AXES, DEFAULT_TIE_RTOL, Surface, adt
-from replication.surfaces.cloud import as_cloud
 from replication.surfaces.delaunay import Backend
 from replication.surfaces.duplicates import DuplicatePolicy
 
@@ -178,10 +178,9 @@ def grid_depths(surface: Surface, shape: tuple[int, int]) -> Grid:
     if order is None:
         order = np.arange(surface.n_vertices, dtype=np.int32)
     axes = np.array([*surface.projection_axes, surface.depth_axis])
-    xy, depth, triangles = relabel(surface.points, axes, surface.triangles, order)
-    lo, hi = xy.min(axis=0), xy.max(axis=0)
-    u = np.linspace(lo[0], hi[0], shape[0])
-    v = np.linspace(lo[1], hi[1], shape[1])
+    xy, depth, triangles, (u_lo, u_hi, v_lo, v_hi) = relabel(surface.points, axes, surface.triangles, order)
+    u = np.linspace(u_lo, u_hi, shape[0])
+    v = np.linspace(v_lo, v_hi, shape[1])
     owner, values = raster(xy, triangles, depth, u, v)
     outside = owner < 0
     rows, cols = np.nonzero(outside)
@@ -275,8 +274,12 @@ class NurbsPatch:
         """scipy ``NdBSpline`` of the homogeneous control points (w x, w y, w z, w)."""
         from scipy.interpolate import NdBSpline
 
-        w = self.weights[..., None]
-        coefficients = np.concatenate([self.control_points * w, w], axis=-1)
+        coefficients = np.empty((*self.weights.shape, 4))
+        if self.rational:
+            coefficients[..., :3] = self.control_points * self.weights[..., None]
+        else:  # the paper's case: the points themselves (times 1, exactly)
+            coefficients[..., :3] = self.control_points
+        coefficients[..., 3] = self.weights
         return NdBSpline((self.knots_u, self.knots_v), coefficients, (self.degree_u, self.degree_v))
 
 
@@ -387,11 +390,13 @@ def fit_nurbs(
     if triangulation is None:
         surface = adt(points, depth=depth, duplicates=duplicates, backend=backend, tie_rtol=tie_rtol)
     else:  # the triangulation fixes the frame and duplicate policy: it must be this cloud's
-        n = as_cloud(points).shape[0]
+        n = validated_cloud(points)[0].shape[0]
         if triangulation.n_input != n:
             raise InputError(f"the triangulation is of {triangulation.n_input} points, the cloud has {n}")
         surface = triangulation
-    extent = np.array([np.ptp(surface.points[:, axis]) for axis in surface.projection_axes])
+    extent = np.array(
+        [np.max(surface.points[:, a]) - np.min(surface.points[:, a]) for a in surface.projection_axes]
+    )
     if np.any(extent <= 0):
         raise DegenerateInputError(f"the projected cloud has zero extent {extent.tolist()}: no grid spans it")
     if net is None:
