@@ -23,6 +23,15 @@ settings.load_profile("ci" if os.environ.get("CI") else os.environ.get("HYPOTHES
 import pytest  # noqa: E402
 
 
+def pytest_collection_finish(session):
+    """Compile (or load from numba's cache) every compiled kernel once, before the first test,
+    so that in a fresh clone no single test carries the compilation (issue 15 item 5)."""
+    if not session.config.option.collectonly and session.items:
+        from replication.kernels import warm_up
+
+        warm_up()
+
+
 @pytest.fixture(scope="session")
 def quick_reports(tmp_path_factory):
     """``replication reproduce --quick`` once per session, run from a scratch directory.
