@@ -40,9 +40,61 @@ def test_import_replication_loads_nothing_heavy():
     assert not any(m.startswith("replication.") and m != "replication._lazy" for m in modules)
 
 
+@pytest.mark.parametrize("argv", [["--help"], ["--version"], ["bogus"], []])
+def test_help_version_and_usage_errors_load_nothing_heavy(argv):
+    code = f"from replication.cli import main\ntry:\n    main({argv!r})\nexcept SystemExit:\n    pass"
+    modules = _loaded_after(code)
+    assert _heavy(modules) == []
+    assert "numpy" not in modules
+    assert not [m for m in modules if m.removeprefix("replication.cli.") in COMMAND_MODULES]
+
+
+def test_a_command_loads_only_its_own_module():
+    code = (
+        "from replication.cli import main\ntry:\n    main(['force', '--help'])\nexcept SystemExit:\n    pass"
+    )
+    modules = _loaded_after(code)
+    assert "replication.cli.force" in modules
+    assert not {"replication.cli.surfaces", "replication.cli.casestudy", "replication.cli.reports"} & modules
+    assert not {"pandas", "matplotlib", "pyvista", "dask", "geomdl"} & {m.split(".")[0] for m in modules}
+
+
+def test_adt_command_loads_no_plotting_tables_or_nurbs_library(tmp_path):
+    out = tmp_path / "x.vtk"
+    argv = ["adt", "--random", "30", "--seed", "1", "-o", str(out)]
+    code = f"from replication.cli import main\nassert main({argv!r}) == 0"
+    modules = _loaded_after(code)
+    assert out.stat().st_size > 0
+    assert not {"pandas", "matplotlib", "pyvista", "vtk", "vtkmodules", "dask", "geomdl"} & {
+        m.split(".")[0] for m in modules
+    }
+    assert "scipy.stats" not in modules and "scipy.spatial" not in modules
+
+
 def test_stats_loads_scipy_stats_on_first_use():
     modules = _loaded_after("import replication.stats")
     assert "scipy" not in {m.split(".")[0] for m in modules}
+
+
+def test_top_level_help_lists_what_each_command_module_registers():
+    import argparse
+
+    from replication.cli import COMMANDS, build_parser
+
+    full = build_parser()  # every command module registered
+    sub = next(a for a in full._actions if isinstance(a, argparse._SubParsersAction))
+    registered = {action.dest: action.help for action in sub._choices_actions}
+    assert registered == {name: helptext for name, (_, helptext) in COMMANDS.items()}
+    lazy = build_parser([])
+    assert lazy.format_help() == full.format_help()
+
+
+def test_the_command_is_found_after_top_level_options(capsys):
+    from replication.cli import _command
+
+    assert _command(["--debug", "adt", "-o", "x.vtk"]) == "adt"
+    assert _command(["--", "force"]) == "force"
+    assert _command(["--help"]) is None
 
 
 # lazy package attributes (replication._lazy) behave like the eager imports they replace
