@@ -143,7 +143,13 @@ def executor(
         else:
             with (
                 LocalCluster(
-                    n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None
+                    n_workers=n,
+                    threads_per_worker=1,
+                    processes=True,
+                    # no dashboard, and the scheduler's HTTP server on a free port: with
+                    # dashboard_address=None it still binds the fixed port 8787
+                    dashboard_address="127.0.0.1:0",
+                    scheduler_kwargs={"dashboard": False},
                 ) as cluster,
                 Client(cluster) as client,
             ):
