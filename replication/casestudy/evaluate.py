@@ -128,7 +128,11 @@ def executor(
     elif kind == "process":
         import multiprocessing
 
-        with cf.ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn")) as pool:
+        from replication.threadlimits import limit_worker_blas  # one BLAS thread per worker
+
+        with cf.ProcessPoolExecutor(
+            max_workers=n, mp_context=multiprocessing.get_context("spawn"), initializer=limit_worker_blas
+        ) as pool:
             yield pool
     else:
         try:
@@ -137,8 +141,11 @@ def executor(
             raise InputError(
                 "dask evaluation needs the optional extra: pip install 'replication[dask]'"
             ) from exc
+        from replication.casestudy.daskplugin import register as one_blas_thread
+
         if scheduler:
             with Client(scheduler) as client:
+                one_blas_thread(client)
                 yield client.get_executor(pure=False)
         else:
             with (
@@ -153,4 +160,5 @@ def executor(
                 ) as cluster,
                 Client(cluster) as client,
             ):
+                one_blas_thread(client)
                 yield client.get_executor(pure=False)
