@@ -73,3 +73,6 @@ def test_performance_report_from_asv_results(asv_results, tmp_path, capsys):
     assert "### `benchmark_adt.ADTPaperSizes.time_adt`" in text
     assert "n=200, backend=sweephull" in text
     assert "### `benchmark_adt.ADTPaperSizes.track_adt_vtk_bytes`" in text and " B |" in text
+    # a --quick run is one sample per benchmark: kept apart from measurements, and marked
+    quick = text.split("## Single-sample runs (`asv run --quick`) on machine `pytest-machine`", 1)[1]
+    assert "(1 sample)" in quick and "No measured commits." in text
