@@ -149,6 +149,10 @@ def test_explicit_pair_and_no_pair(history, tmp_path):
         encoding="utf-8"
     )
     assert "## Comparison `bbbbbbbb` → `aaaaaaaa`" in text and "| faster |" in text
+    text = render_performance(history, tmp_path / "out", compare=("aaaaaaaa", "cccccccc")).read_text(
+        encoding="utf-8"
+    )  # a quick run is not compared
+    assert "## Comparison" not in text and "no measured results of `aaaaaaaa` or `cccccccc`" in text
     one = write_results(tmp_path / "one", [("dddddddd", 1, {"b.track_bytes": [[5], [], "v1"]})])
     text = render_performance(one, tmp_path / "out1").read_text(encoding="utf-8")
     assert "## Comparison" not in text and "| – | 5 B |" in text

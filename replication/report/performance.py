@@ -259,6 +259,9 @@ def render_performance(
         pair = _pick(measured, compare)
         if pair:
             lines += _comparison(by_machine, *pair, machine, factor)
+        elif compare is not None:
+            missing = " or ".join(f"`{c}`" for c in compare)
+            lines += [f"No comparison on machine `{machine}`: no measured results of {missing}.", ""]
         if quick:
             lines += [
                 f"## Single-sample runs (`asv run --quick`) on machine `{machine}`",
