@@ -124,12 +124,6 @@ def _pick(order: list[str], compare: tuple[str, str] | None) -> tuple[str, str] 
     return (found[0], found[1]) if None not in found else None
 
 
-def _window(group: pd.DataFrame) -> tuple[pd.Timestamp, pd.Timestamp]:
-    start = group["started_at"].min()
-    end = (group["started_at"] + pd.to_timedelta(group["duration"].fillna(0), unit="s")).max()
-    return start, end
-
-
 def _test_text(v) -> str:
     if v.difference is None:
         return "–"
@@ -153,30 +147,16 @@ def _comparison(frame: pd.DataFrame, base: str, head: str, machine: str, factor:
         row = [f"`{key[0]}`", key[1] or "–", *cells, ratio, v.word, _test_text(v)]
         rows.append((VERDICTS.index(v.word), row))
     rows.sort(key=lambda r: r[0])
-    (b0, b1), (a0, a1) = _window(frame[frame["commit"] == base]), _window(frame[frame["commit"] == head])
-    if any(t is pd.NaT for t in (b0, b1, a0, a1)):
-        when = "When the two commits were measured is not recorded."
-    else:
-        when = (
-            f"`{base}` was measured from {b0:%Y-%m-%d %H:%M} to {b1:%H:%M} UTC and `{head}` from "
-            f"{a0:%Y-%m-%d %H:%M} to {a1:%H:%M} UTC: "
-            + (
-                "the two windows overlap (as with `--interleave-rounds`)."
-                if b0 <= a1 and a0 <= b1
-                else "one after the other (not interleaved: a change of load between them biases the ratios)."
-            )
-        )
     summary = ", ".join(f"{n} {word}" for word, n in counts.items() if n)
     return [
         f"## Comparison `{base}` → `{head}` (machine `{machine}`)",
         "",
-        f"Verdicts with asv's rule at a factor of {factor:g}: {summary}. A value is *slower*/*faster* "
+        f"Verdicts with asv's rule at a factor of {factor:g}: {summary}. The ratio is `{head}` / "
+        f"`{base}`. A value is *slower*/*faster* "
         f"(or *higher*/*lower*) only when the ratio passes the factor and the samples differ "
         f"significantly (Mann-Whitney U, p < {P_THRESHOLD:g}, or 99 % confidence intervals of "
         "the medians apart); *noise* passes the factor but not the test; *cannot tell*: a "
         "single sample or no statistics, so no test is possible.",
-        "",
-        when,
         "",
         table(
             [r for _, r in rows],
