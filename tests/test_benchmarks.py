@@ -34,6 +34,9 @@ def asv_results(tmp_path_factory):
     config.write_text(json.dumps(conf))
     # benchmark_dir and repo are relative to the config file: point them at the project
     conf.update(repo=str(ROOT), benchmark_dir=str(ROOT / "benchmarks"))
+    # asv resolves its configured branches even with --python=same (where no range may be
+    # given): a clone need not have a branch named main, or any branch (a detached HEAD)
+    conf.update(branches=["HEAD"])
     config.write_text(json.dumps(conf))
     head = subprocess.run(
         ["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=True
