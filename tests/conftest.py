@@ -60,6 +60,30 @@ def quick_reports(tmp_path_factory):
 
 
 @pytest.fixture
+def port_8787_taken():
+    """Port 8787, dask's default dashboard port, is in use while the test runs.
+
+    Binds it when it is free; when another program has it already, that is just as good.
+    Tests that start dask clusters use this, so a cluster that tries the fixed port fails
+    here as it would next to another program's dashboard.
+    """
+    import socket
+
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    try:
+        sock.bind(("", 8787))
+        sock.listen()
+    except OSError:
+        sock.close()
+        sock = None
+    try:
+        yield 8787
+    finally:
+        if sock is not None:
+            sock.close()
+
+
+@pytest.fixture
 def restore_global_rng():
     """Tests that set numpy's legacy global seed (to prove it does not matter) restore it."""
     import numpy as np
