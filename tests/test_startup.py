@@ -89,6 +89,18 @@ def test_top_level_help_lists_what_each_command_module_registers():
     assert lazy.format_help() == full.format_help()
 
 
+@pytest.mark.parametrize("name", ["adt", "compare", "force", "casestudy", "reproduce", "report", "sph"])
+def test_each_command_parses_with_only_its_module_registered(name, capsys):
+    from replication.cli import COMMANDS, build_parser
+
+    parser = build_parser([name])
+    with pytest.raises(SystemExit) as exit_:
+        parser.parse_args([name, "--help"])
+    assert exit_.value.code == 0
+    assert capsys.readouterr().out.startswith(f"usage: replication {name} [-h]")  # the full parser
+    assert name in COMMANDS
+
+
 def test_the_command_is_found_after_top_level_options(capsys):
     from replication.cli import _command
 

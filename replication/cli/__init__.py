@@ -72,7 +72,7 @@ def build_parser(commands: Iterable[str] | None = None) -> argparse.ArgumentPars
     ``main`` builds the parser of only the command it runs: ``replication --help`` and
     ``replication adt ...`` import nothing of the other commands.
     """
-    wanted = set(COMMANDS if commands is None else commands)
+    modules = {COMMANDS[name][0] for name in (COMMANDS if commands is None else commands)}
     parser = argparse.ArgumentParser(
         prog="replication",
         description=(
@@ -86,7 +86,7 @@ def build_parser(commands: Iterable[str] | None = None) -> argparse.ArgumentPars
     for name, (module, helptext) in COMMANDS.items():
         if name in sub.choices:  # registered with a sibling command of its module
             continue
-        if name in wanted:
+        if module in modules:  # registers all of its commands (they are adjacent in COMMANDS)
             importlib.import_module(module).register(sub)
         else:
             sub.add_parser(name, help=helptext, add_help=False)
