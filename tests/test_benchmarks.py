@@ -45,7 +45,7 @@ def asv_results(tmp_path_factory):
     assert machine.returncode == 0, machine.stderr
     run = _asv(
         "run", "--python=same", "--quick", "--machine", "pytest-machine", "--set-commit-hash", head.strip(),
-        "--bench", r"ADTPaperSizes\.(time_adt|track_adt_vtk_bytes)\b", "--show-stderr",
+        "--bench", r"ADTPaperSizes\.(time_adt|track_adt_vtk_bytes)\(200, 'sweephull'\)", "--show-stderr",
         home=tmp, config=config,
     )  # fmt: skip
     assert run.returncode == 0, run.stdout + run.stderr

@@ -10,22 +10,69 @@ to run again with ``--debug`` for the traceback.
 from __future__ import annotations
 
 import argparse
+import importlib
 import shlex
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
-from replication import __version__
 from replication.errors import ReplicationError
 
-__all__ = ["build_parser", "main"]
+__all__ = ["COMMANDS", "build_parser", "main"]
 
 DEBUG_HELP = "on an unexpected error, show the full Python traceback"
 
+#: Every command: the module whose ``register`` adds its parser, and its one-line help. The
+#: top-level ``--help`` lists them from here, so a command's module (and what it imports) is
+#: loaded only when that command runs; a test checks that each module's parser says the same.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "adt": ("replication.cli.surfaces", "build an ADT surface from a point cloud (paper section 3.2)"),
+    "nurbs": ("replication.cli.surfaces", "fit the paper's NURBS baseline to a point cloud (section 3.1)"),
+    "compare": ("replication.cli.surfaces", "paired statistics of ADT vs NURBS depths (section 4)"),
+    "force": (
+        "replication.cli.force",
+        "force of the case study's water jet on a surface (paper section 6)",
+    ),
+    "casestudy": (
+        "replication.cli.casestudy",
+        "the water-jet genetic algorithm (section 6) into reports/casestudy.md (Figs. 8, 9)",
+    ),
+    "reproduce": ("replication.cli.reports", "regenerate every available report of the paper's results"),
+    "table1": (
+        "replication.cli.reports",
+        "reproduce Table 1 and Fig. 6 (ADT vs NURBS) into reports/table1.md",
+    ),
+    "report": (
+        "replication.cli.reports",
+        "re-render the reports' markdown and figures from their saved data (no experiment is run)",
+    ),
+    "sph": (
+        "replication.cli.sph",
+        "the case study on a real SPH solver: convergence and the paper's forces examined (sph.md)",
+    ),
+}
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every subcommand registered."""
-    from replication.cli import casestudy, force, reports, sph, surfaces
 
+class _Version(argparse.Action):
+    """``--version``: reads the installed version only when asked (importlib.metadata is not free)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS, **kwargs: object):
+        super().__init__(option_strings, dest=dest, default=argparse.SUPPRESS, nargs=0, **kwargs)
+
+    def __call__(self, parser: argparse.ArgumentParser, *args: object, **kwargs: object) -> None:
+        from replication import __version__
+
+        print(f"{parser.prog} {__version__}")
+        parser.exit()
+
+
+def build_parser(commands: Iterable[str] | None = None) -> argparse.ArgumentParser:
+    """The argument parser; the full parsers of ``commands`` (default: every command).
+
+    A command left out is listed in the top-level help but has no arguments of its own, so
+    ``main`` builds the parser of only the command it runs: ``replication --help`` and
+    ``replication adt ...`` import nothing of the other commands.
+    """
+    modules = {COMMANDS[name][0] for name in (COMMANDS if commands is None else commands)}
     parser = argparse.ArgumentParser(
         prog="replication",
         description=(
@@ -33,17 +80,30 @@ def build_parser() -> argparse.ArgumentParser:
             "their comparison with NURBS, and the paper's water-jet case study."
         ),
     )
-    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    parser.add_argument("--version", action=_Version, help="show program's version number and exit")
     parser.add_argument("--debug", action="store_true", help=DEBUG_HELP)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    surfaces.register(sub)
-    force.register(sub)
-    casestudy.register(sub)
-    reports.register(sub)
-    sph.register(sub)
+    for name, (module, helptext) in COMMANDS.items():
+        if name in sub.choices:  # registered with a sibling command of its module
+            continue
+        if module in modules:  # registers all of its commands (they are adjacent in COMMANDS)
+            importlib.import_module(module).register(sub)
+        else:
+            sub.add_parser(name, help=helptext, add_help=False)
     for command in sub.choices.values():  # also accepted after the command: replication adt ... --debug
         command.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=DEBUG_HELP)
     return parser
+
+
+def _command(argv: Sequence[str]) -> str | None:
+    """The command ``argv`` names: its first word that is not an option (top-level options take no value)."""
+    words = iter(argv)
+    for word in words:
+        if word == "--":
+            return next(words, None)
+        if not word.startswith("-"):
+            return word
+    return None
 
 
 def _interrupted(exc: BaseException) -> bool:
@@ -62,8 +122,9 @@ def _one_line(exc: BaseException) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``replication`` command; returns the exit status."""
-    parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
+    command = _command(argv)
+    parser = build_parser([command] if command in COMMANDS else [])
     args = parser.parse_args(argv)
     args.invocation = shlex.join(["replication", *argv])
     func: Callable[[argparse.Namespace], int] = args.func
