@@ -9,15 +9,14 @@ import concurrent.futures as cf
 import dataclasses
 import hashlib
 import json
-import threading
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+from sph_fake import CALLS, REFUSED, RUNNING, fake_sph
 
 from replication.casestudy import JetConfig, flat_plate_cloud, sph_batch
-from replication.casestudy.sph import SPHForce, SPHSettings, write_result
+from replication.casestudy.sph import SPHSettings
 from replication.casestudy.sph_batch import (
     Scored,
     SurfaceTask,
@@ -32,38 +31,6 @@ from replication.surfaces import adt, random_cloud
 
 SETTINGS = SPHSettings(particle_radius=1e-3, duration=0.016)
 JET = JetConfig()
-CALLS: list[str] = []  # names simulated (serial and thread executors share it)
-LOCK = threading.Lock()
-RUNNING = [0, 0]  # now, most at once
-
-
-def fake_sph(points, triangles, config, settings, *, timeout, run_dir):
-    """A stand-in for sph_force: the force is the surface's mean height (N); the status is
-    "blowup" when the surface reaches 13 mm; a height off the 1 mm lattice is an InputError."""
-    top = float(np.max(points[:, 2]))
-    if not np.all(points[:, 2] == np.round(points[:, 2])):
-        raise InputError("surface off the lattice")
-    with LOCK:
-        RUNNING[0] += 1
-        RUNNING[1] = max(RUNNING)
-    time.sleep(0.02)
-    run_dir = Path(run_dir)
-    run_dir.mkdir(parents=True)
-    status = "blowup" if top >= 13 else "ok"
-    result = SPHForce(
-        status=status, reason="runaway velocities" if status != "ok" else None, key="k", settings=settings,
-        jet=config, mirrored=True, time=np.arange(3) * 1e-3, force=np.zeros((3, 3)),
-        mean_force=np.array([0.0, 0.0, -float(np.mean(points[:, 2]))]), window=(0.001, 0.002),
-        std_axial=0.1, peak_axial=1.0, peak_time=0.0, max_axial=1.0, max_step_axial=1.0, mass_flow=1.0,
-        fluid_particles=10, boundary_particles=20, simulated_time=0.016, steps=3, wall_seconds=0.02,
-        engine="test", run_dir=str(run_dir),
-    )  # fmt: skip
-    write_result(result, run_dir / "result.json")
-    (run_dir / "column.pda").write_text("large\n")
-    with LOCK:
-        CALLS.append(f"{top:g}")
-        RUNNING[0] -= 1
-    return result
 
 
 @pytest.fixture(autouse=True)
@@ -85,19 +52,19 @@ def test_a_rerun_reads_every_result_from_the_cache(tmp_path):
     tasks = [plate(h) for h in (1, 2, 3)]
     first = score(tasks, tmp_path)
     assert [s.status for s in first] == ["ok"] * 3 and not any(s.cached for s in first)
-    assert [s.result.mean_axial for s in first] == [1.0, 2.0, 3.0]
+    assert [s.result.mean_axial for s in first] == [2.0, 3.0, 4.0]
     assert sorted(CALLS) == ["1", "2", "3"]
     CALLS.clear()
     again = score(tasks, tmp_path)
     assert CALLS == [] and all(s.cached for s in again)
-    assert [s.result.mean_axial for s in again] == [1.0, 2.0, 3.0]
+    assert [s.result.mean_axial for s in again] == [2.0, 3.0, 4.0]
     assert [s.key for s in again] == [s.key for s in first]
     entry = entry_path(tmp_path, first[0].key)
     assert entry.parent.name == first[0].key[:2] and (entry / "result.json").is_file()
     assert not (entry / "column.pda").exists()  # large, regenerable inputs are dropped
     surface = json.loads((entry / "surface.json").read_text())
     assert surface["name"] == "plate 1" and np.array_equal(surface["points"], tasks[0].points)
-    assert read_entry(tmp_path, first[0].key).mean_axial == 1.0
+    assert read_entry(tmp_path, first[0].key).mean_axial == 2.0
 
 
 def test_equal_surfaces_are_simulated_once_and_keep_their_names(tmp_path):
@@ -152,11 +119,11 @@ def test_failures_are_recorded_the_study_carries_on_and_a_retry_is_asked_for(tmp
 
 def test_a_task_that_raises_is_an_error_not_cached_and_the_others_finish(tmp_path):
     high = np.array(plate(1).points)
-    high[0, 2] = 12.8  # fake_sph refuses it
+    high[0, 2] = REFUSED  # fake_sph refuses it
     bad = SurfaceTask("bad", high, plate(1).triangles)
     scored = score([plate(1), bad, plate(2)], tmp_path)
     assert [s.status for s in scored] == ["ok", "error", "ok"]
-    assert "InputError: surface off the lattice" in scored[1].reason and scored[1].path is None
+    assert "InputError: surface refused" in scored[1].reason and scored[1].path is None
     assert read_entry(tmp_path, scored[1].key) is None
 
 

@@ -20,7 +20,7 @@ __all__ = ["build_parser", "main"]
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand registered."""
-    from replication.cli import casestudy, force, reports, sph, surfaces
+    from replication.cli import casestudy, force, reports, sph, surfaces, validate
 
     parser = argparse.ArgumentParser(
         prog="replication",
@@ -36,6 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
     casestudy.register(sub)
     reports.register(sub)
     sph.register(sub)
+    validate.register(sub)  # issue 11: the jet model checked against SPH
     return parser
 
 

@@ -64,6 +64,10 @@ def _cmd_report(args: argparse.Namespace) -> int:
         from replication.report.sph import render_sph
 
         written.append(render_sph(out))
+    if (out / "data" / "jet_validation_provenance.json").is_file():  # issue 11: the validation study
+        from replication.report.jet_validation import render_jet_validation
+
+        written.append(render_jet_validation(out))
     if (out / "data" / "casestudy_provenance.json").is_file():
         written.append(render_casestudy(out))
     if not written:

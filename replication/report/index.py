@@ -34,6 +34,11 @@ REPORTS: tuple[tuple[str, str, str], ...] = (
         "SPlisHSPlasH: convergence, and the paper's forces examined (section 6)",
     ),
     (
+        "jet_validation.md",
+        "The thin-sheet jet model checked against SPH",
+        "37 surfaces (plates, cups, the GA's winners, random lattices) ranked by both (section 6)",
+    ),
+    (
         "performance.md",
         "Performance history",
         "asv benchmarks of ADT, NURBS and the case study across commits",

@@ -1,0 +1,152 @@
+"""The validation study end to end: tables and report with a stand-in engine, then on the real
+engine (CI-sized: three surfaces, coarse particles) from the command line, with its cache."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from sph_fake import CALLS, fake_sph
+
+from replication.casestudy.ga import GAConfig
+from replication.casestudy.sph import engine_available
+from replication.cli import main
+from replication.errors import InputError
+from replication.experiments.jet_validation import ValidationConfig, run_validation
+from replication.experiments.jet_validation_tables import SPH_COLUMN
+from replication.experiments.rank_stats import kendall_tau_b, spearman
+from replication.report.jet_validation import render_jet_validation, save_jet_validation_data
+
+SMALL = ValidationConfig(
+    radius=1e-3, resolution_radii=(1.5e-3, 1e-3), angles_deg=(10.0,), bowl_depths_mm=(13.0,),
+    resolution_surfaces=("flat plate", "Pelton bucket", "random 00"), random_surfaces=4,
+    ga=GAConfig(population=6, generations=2, runs=1), ga_top=2, bootstrap=200,
+)  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def small_study(tmp_path_factory):
+    cache = tmp_path_factory.mktemp("cache")
+    return run_validation(SMALL, cache_dir=cache, simulate=fake_sph), cache
+
+
+def test_every_surface_is_scored_both_ways(small_study):
+    results, _ = small_study
+    table = results.surfaces
+    assert list(table["surface"][:4]) == [
+        "flat plate",
+        "plate inclined 10 deg",
+        "bowl 13 mm",
+        "Pelton bucket",
+    ]
+    assert (
+        list(table["family"]).count("GA winner") == 2 and list(table["family"]).count("random lattice") == 4
+    )
+    assert (table["sph_status"] == "ok").all()
+    # the stand-in's force is 1 + the surface's mean height; the flux is 1 kg/s at 4.34 m/s
+    vertices = results.vertices.groupby("surface", sort=False)["z_mm"].mean()
+    np.testing.assert_allclose(table.set_index("surface")["sph_N"], 1 + vertices[table["surface"]])
+    np.testing.assert_allclose(table[SPH_COLUMN], table["sph_N"] / 4.34)
+    assert table.loc[0, "model_over_rho_q_v"] == pytest.approx(1.0)  # the flat plate
+    assert (
+        results.triangles.groupby("surface").size()[table["surface"]].tolist() == table["triangles"].tolist()
+    )
+
+
+def test_agreement_is_that_of_the_tables_columns(small_study):
+    results, _ = small_study
+    table, overall = results.surfaces, results.agreement.iloc[0]
+    assert overall["scope"] == "all surfaces" and overall["n"] == len(table)
+    assert overall["spearman"] == pytest.approx(spearman(table["model_over_rho_q_v"], table[SPH_COLUMN]))
+    assert overall["kendall"] == pytest.approx(kendall_tau_b(table["model_over_rho_q_v"], table[SPH_COLUMN]))
+    assert overall["spearman_low"] <= overall["spearman"] <= overall["spearman_high"]
+    assert set(results.agreement["scope"]) >= {"family: plate", "family: random lattice"}
+
+
+def test_the_resolution_study_is_scored_at_each_radius_and_shares_the_cache(small_study):
+    results, cache = small_study
+    res = results.resolution
+    assert sorted(res["radius_mm"].unique()) == [1.0, 1.5] and len(res) == 6
+    # the stand-in does not depend on the radius: converged, the ranking unchanged
+    assert results.convergence["max_change"].max() == 0.0
+    fine = res[res["radius_mm"] == 1.0].set_index("surface")["sph_key"]
+    assert (results.surfaces.set_index("surface").loc[fine.index, "sph_key"] == fine).all()
+    distinct = set(results.surfaces["sph_key"]) | set(res["sph_key"])
+    assert results.provenance["simulations"] == len(distinct) == results.surfaces["sph_key"].nunique() + 3
+
+
+def test_a_rerun_simulates_nothing_and_gives_the_same_tables(small_study):
+    results, cache = small_study
+    CALLS.clear()
+    again = run_validation(SMALL, cache_dir=cache, simulate=fake_sph, simulate_missing=False)
+    assert CALLS == [] and again.surfaces["sph_cached"].all()
+    columns = ["surface", "model_N", "sph_N", "sph_key"]
+    pd.testing.assert_frame_equal(again.surfaces[columns], results.surfaces[columns])
+    pd.testing.assert_frame_equal(again.agreement, results.agreement)  # the bootstrap is seeded
+
+
+def test_the_report_renders_from_its_data(small_study, tmp_path):
+    results, _ = small_study
+    save_jet_validation_data(results, tmp_path)
+    text = render_jet_validation(tmp_path).read_text()
+    overall = results.agreement.iloc[0]
+    assert f"Spearman {overall['spearman']:.2f} [{overall['spearman_low']:.2f}" in text
+    assert "| GA run 0 #1 | GA winner |" in text and "## Resolution study" in text
+    for name in ("jet_validation_scatter", "jet_validation_resolution"):
+        assert (tmp_path / "figures" / f"{name}.png").is_file()
+    back = pd.read_csv(tmp_path / "data" / "jet_validation_surfaces.csv")
+    assert back["surface"].tolist() == results.surfaces["surface"].tolist()
+
+
+def test_bad_configurations_name_the_problem():
+    with pytest.raises(InputError, match="one of the resolution study's radii"):
+        ValidationConfig(radius=0.6e-3)
+    with pytest.raises(InputError, match="between 0.1 and 5 mm"):
+        ValidationConfig(radius=9e-3, resolution_radii=(9e-3,))
+    bad = dataclasses.replace(ValidationConfig.quick(), resolution_surfaces=("no such surface",))
+    with pytest.raises(InputError, match="not in the study"):
+        run_validation(bad, cache_dir="unused", simulate=fake_sph)
+
+
+needs_engine = pytest.mark.skipif(
+    not engine_available(), reason='the SPH engine is not installed (pip install ".[sph]")'
+)
+
+
+@needs_engine
+def test_the_study_runs_end_to_end_on_three_surfaces_and_reruns_from_its_cache(tmp_path, capsys):
+    """Acceptance (issue 11): ``validate-jet --quick``: flat plate, bucket and a random lattice
+    surface with coarse SPH (r = 1.25 mm, a resolution study at 1.5 and 1.25 mm), then the
+    report again from the cache alone."""
+    out, cache = tmp_path / "reports", tmp_path / "cache"
+    argv = ["validate-jet", "--quick", "--cache-dir", str(cache), "--output-dir", str(out)]
+    assert main(argv) == 0
+    assert "3 surfaces: thin-sheet model vs SPH Spearman" in capsys.readouterr().out
+    table = pd.read_csv(out / "data" / "jet_validation_surfaces.csv").set_index("surface")
+    assert (table["sph_status"] == "ok").all()  # (read from the cache the resolution study filled)
+    flat, bucket = table.loc["flat plate", SPH_COLUMN], table.loc["Pelton bucket", SPH_COLUMN]
+    assert 0.8 <= flat <= 1.3 and 1.15 * flat < bucket < 2.0  # momentum theory, as in test_sph
+    assert (out / "jet_validation.md").is_file() and (
+        out / "figures" / "jet_validation_scatter.png"
+    ).is_file()
+    entries = [p for p in cache.glob("??/*") if (p / "result.json").is_file()]
+    assert len(entries) == 6  # 3 surfaces x 2 radii; the study radius is shared with the resolution study
+    provenance = json.loads((out / "data" / "jet_validation_provenance.json").read_text())
+    assert provenance["simulations"] == 6 and provenance["simulation_seconds"] > 0
+
+    assert main([*argv, "--from-cache"]) == 0
+    again = pd.read_csv(out / "data" / "jet_validation_surfaces.csv").set_index("surface")
+    assert again["sph_cached"].all()
+    pd.testing.assert_series_equal(again[SPH_COLUMN], table[SPH_COLUMN])
+    assert (
+        json.loads((out / "data" / "jet_validation_provenance.json").read_text())["simulation_seconds"] == 0
+    )
+
+
+@needs_engine
+def test_from_cache_fails_naming_what_is_missing(tmp_path, capsys):
+    argv = ["validate-jet", "--quick", "--from-cache", "--cache-dir", str(tmp_path / "empty"),
+            "--output-dir", str(tmp_path / "out")]  # fmt: skip
+    assert main(argv) == 1
+    assert "missing from the cache: run without --from-cache" in capsys.readouterr().err
