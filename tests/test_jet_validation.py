@@ -150,3 +150,26 @@ def test_from_cache_fails_naming_what_is_missing(tmp_path, capsys):
             "--output-dir", str(tmp_path / "out")]  # fmt: skip
     assert main(argv) == 1
     assert "missing from the cache: run without --from-cache" in capsys.readouterr().err
+
+
+def test_the_asv_benchmark_tracks_the_models_spearman_against_the_saved_study(
+    small_study, tmp_path, monkeypatch
+):
+    """The ``track_`` benchmark rescores the saved surfaces with the model and finds the study's
+    Spearman and Kendall; without data it is skipped (NotImplementedError)."""
+    from pathlib import Path
+
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1]))
+    from benchmarks.benchmark_jet_validation import ModelRanksLikeSPH
+
+    results, _ = small_study
+    save_jet_validation_data(results, tmp_path)
+    bench = ModelRanksLikeSPH()
+    bench.data_dir = tmp_path / "data"
+    bench.setup()
+    overall = results.agreement.iloc[0]
+    assert bench.track_model_spearman() == pytest.approx(overall["spearman"], abs=1e-12)
+    assert bench.track_model_kendall() == pytest.approx(overall["kendall"], abs=1e-12)
+    bench.data_dir = tmp_path / "nothing here"
+    with pytest.raises(NotImplementedError, match="no committed SPH study data"):
+        bench.setup()
