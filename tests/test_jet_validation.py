@@ -99,14 +99,34 @@ def test_the_report_renders_from_its_data(small_study, tmp_path):
     assert back["surface"].tolist() == results.surfaces["surface"].tolist()
 
 
-def test_bad_configurations_name_the_problem():
+def test_the_surfaces_are_kept_with_the_cache_and_read_back(small_study, monkeypatch):
+    """A later run reads the stored surface set: a changed triangulator cannot change them."""
+    from replication.experiments import jet_surface_set
+
+    results, cache = small_study
+    stored = json.loads(jet_surface_set.set_path(cache, SMALL).read_text())
+    assert [s["name"] for s in stored["surfaces"]] == results.surfaces["surface"].tolist()
+    assert (cache / "ga-runs").is_dir()
+
+    def broken(*args, **kwargs):
+        raise AssertionError("surfaces built again")
+
+    monkeypatch.setattr(jet_surface_set, "reference_surfaces", broken)
+    surfaces, built_by = jet_surface_set.study_surfaces(SMALL, cache_dir=cache)
+    assert [s.name for s in surfaces] == [s["name"] for s in stored["surfaces"]]
+    assert built_by == stored["built_by"] == results.provenance["surfaces_built_by"]
+    with pytest.raises(AssertionError, match="built again"):
+        jet_surface_set.study_surfaces(SMALL, cache_dir=cache, rebuild=True)
+
+
+def test_bad_configurations_name_the_problem(tmp_path):
     with pytest.raises(InputError, match="one of the resolution study's radii"):
         ValidationConfig(radius=0.6e-3)
     with pytest.raises(InputError, match="between 0.1 and 5 mm"):
         ValidationConfig(radius=9e-3, resolution_radii=(9e-3,))
     bad = dataclasses.replace(ValidationConfig.quick(), resolution_surfaces=("no such surface",))
     with pytest.raises(InputError, match="not in the study"):
-        run_validation(bad, cache_dir="unused", simulate=fake_sph)
+        run_validation(bad, cache_dir=tmp_path, simulate=fake_sph)
 
 
 needs_engine = pytest.mark.skipif(

@@ -21,8 +21,10 @@ examples:
 Every simulation's result is a directory in the SPH cache (--cache-dir, default .sph-cache/),
 named by a hash of the surface, the settings, the engine version and the SPH code: after
 Ctrl-C or a crash, the same command skips every finished simulation. Failed simulations are
-recorded and skipped on a rerun (--retry-failed runs them again). The GA's runs, whose
-winners are scored, are kept in the cache directory too (ga-runs/).
+recorded and skipped on a rerun (--retry-failed runs them again). The study's surfaces are
+built once and kept in the cache directory (surfaces/, with the GA runs whose winners they
+include, ga-runs/), so a later change of the triangulator or the model does not turn the
+cached simulations into misses; --rebuild-surfaces builds them afresh.
 """
 
 
@@ -75,7 +77,8 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
             results = run_validation(
                 config, cache_dir=cache, executor=pool, max_parallel=args.workers,
                 ga_run_dir=args.ga_run_dir, ga_pool_factory=ga_pool, retry_failed=args.retry_failed,
-                simulate_missing=not args.from_cache, on_result=done, on_stage=stage,
+                simulate_missing=not args.from_cache, rebuild_surfaces=args.rebuild_surfaces,
+                on_result=done, on_stage=stage,
                 command=args.invocation, quick=args.quick,
             )  # fmt: skip
     except KeyboardInterrupt:
@@ -145,7 +148,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--retry-failed", action="store_true", help="simulate again the failed simulations")
     p.add_argument(
-        "--ga-run-dir", metavar="DIR", help="the GA runs whose winners are scored (default: in the cache)"
+        "--ga-run-dir",
+        metavar="DIR",
+        help="score the winners of these GA runs (read, or run there) instead of the GA kept in the cache",
+    )
+    p.add_argument(
+        "--rebuild-surfaces",
+        action="store_true",
+        help="build the surfaces afresh with this code instead of reading the set kept in the cache",
     )
     p.add_argument(
         "--workers", type=positive_int, default=2, help="simulations at a time (default 2; each uses a core)"

@@ -17,7 +17,6 @@ Nothing here writes a file but the SPH cache's entries; the tables go to the rep
 from __future__ import annotations
 
 import concurrent.futures as cf
-import tempfile
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field, replace
@@ -31,16 +30,11 @@ from replication.casestudy.ga import GAConfig
 from replication.casestudy.jet import jet_force
 from replication.casestudy.jetconfig import JetConfig
 from replication.errors import InputError
-from replication.experiments.jet_surfaces import (
-    MAX_INCLINATION_DEG,
-    StudySurface,
-    ga_winners,
-    random_lattice_surfaces,
-    reference_surfaces,
-)
+from replication.experiments.jet_surface_set import study_surfaces
+from replication.experiments.jet_surfaces import MAX_INCLINATION_DEG, StudySurface
 from replication.provenance import provenance
 
-__all__ = ["ValidationConfig", "ValidationResults", "build_surfaces", "ga_run_directory", "run_validation"]
+__all__ = ["ValidationConfig", "ValidationResults", "model_scores", "run_validation"]
 
 
 @dataclass(frozen=True)
@@ -156,50 +150,6 @@ class ValidationResults:
     provenance: dict[str, Any] = field(default_factory=dict)
 
 
-def build_surfaces(
-    config: ValidationConfig, *, ga_run_dir: str | Path | None = None, pool_factory: Any = None
-) -> list[StudySurface]:
-    """Every surface of the study, validated for the thin-sheet model (and so for SPH).
-
-    The GA runs are read from (or run into) ``ga_run_dir``; default: a temporary directory.
-    """
-    import functools
-
-    from replication.casestudy.evaluate import executor
-
-    surfaces = reference_surfaces(config.angles_deg, config.bowl_depths_mm)
-    if config.ga is not None and config.ga_top > 0:
-        pool_factory = pool_factory or functools.partial(executor, "serial")
-        if ga_run_dir is None:
-            with tempfile.TemporaryDirectory(prefix="replication-ga-") as tmp:
-                surfaces += ga_winners(config.ga, config.ga_top, run_dir=tmp, pool_factory=pool_factory)
-        else:
-            surfaces += ga_winners(config.ga, config.ga_top, run_dir=ga_run_dir, pool_factory=pool_factory)
-    surfaces += random_lattice_surfaces(config.random_surfaces, config.ga or GAConfig(), rng=config.seed)
-    names = [s.name for s in surfaces]
-    if len(set(names)) != len(names):
-        raise InputError(f"surface names must be unique, got {names}")
-    missing = sorted(set(config.resolution_surfaces) - set(names))
-    if missing:
-        raise InputError(f"resolution-study surfaces not in the study: {', '.join(missing)}")
-    for s in surfaces:  # the model's full mesh checks (height field, domain, y >= 0): SPH uses the same
-        jet_force(s.points, s.triangles, config.jet)
-    return surfaces
-
-
-def ga_run_directory(cache_dir: str | Path, ga: GAConfig) -> Path:
-    """Where the study keeps its GA runs by default: beside the SPH cache, one per configuration.
-
-    Kept with the cache so that a rerun scores the same winners (and finds their SPH results)
-    even if a later change of the model, at rounding level, would steer a re-run GA elsewhere.
-    """
-    import hashlib
-    import json
-
-    digest = hashlib.sha256(json.dumps(ga.as_dict(), sort_keys=True).encode()).hexdigest()[:16]
-    return Path(cache_dir) / "ga-runs" / digest
-
-
 def _sph_row(scored: Any, jet: JetConfig) -> dict[str, Any]:
     r = scored.result
     nan = float("nan")
@@ -254,6 +204,7 @@ def run_validation(
     ga_pool_factory: Any = None,
     retry_failed: bool = False,
     simulate_missing: bool = True,
+    rebuild_surfaces: bool = False,
     on_result: Callable[[Any], None] | None = None,
     on_stage: Callable[[str, int], None] | None = None,
     command: str | None = None,
@@ -270,7 +221,11 @@ def run_validation(
     executor : concurrent.futures.Executor, optional
         Where simulations run; at most ``max_parallel`` at once.
     ga_run_dir : path, optional
-        Directory of the GA's runs (read when complete, else run there).
+        Directory of another GA's runs (read when complete, else run there), whose winners
+        are scored instead of those of the GA kept in the cache.
+    rebuild_surfaces : bool
+        Build the study's surfaces afresh instead of reading the set stored with the cache
+        (:mod:`.jet_surface_set`).
     retry_failed, simulate_missing, simulate
         See :func:`~replication.casestudy.sph_batch.score_surfaces`.
     on_result : callable, optional
@@ -287,9 +242,13 @@ def run_validation(
     from replication.experiments.jet_validation_tables import agreement_table, convergence_table, series_frame
 
     started = time.perf_counter()
-    if ga_run_dir is None and config.ga is not None:
-        ga_run_dir = ga_run_directory(cache_dir, config.ga)
-    surfaces = build_surfaces(config, ga_run_dir=ga_run_dir, pool_factory=ga_pool_factory)
+    surfaces, built_by = study_surfaces(
+        config,
+        cache_dir=cache_dir,
+        ga_run_dir=ga_run_dir,
+        pool_factory=ga_pool_factory,
+        rebuild=rebuild_surfaces,
+    )
     by_name = {s.name: s for s in surfaces}
     model = model_scores(surfaces, config.jet).set_index("surface")
 
@@ -333,6 +292,7 @@ def run_validation(
         config=config.as_dict(),
         engine=engine_version(),
         sph_code_digest=code_digest(),
+        surfaces_built_by=built_by,
         sph_cache=str(Path(cache_dir).resolve()),
         seeds=(
             f"random surface i: numpy default_rng([{config.seed}, i]); bootstrap: "
