@@ -19,6 +19,7 @@ from matplotlib.patches import Wedge
 
 from replication.errors import DuplicatePointsWarning
 from replication.io.atomic import atomic_write_text
+from replication.report.casestudy_validation import validation_section  # issue 11
 from replication.report.figures import save_figure
 from replication.report.markdown import fmt, iqr, provenance_section, table
 from replication.report.render3d import render_views
@@ -289,6 +290,7 @@ and the size of the individual's surface as compact legacy VTK:
 - **Evaluations.** Individuals already scored are not scored again (cache by genome), so our count
   of evaluations is below population x generations.
 
+{validation_section(out)}
 ## Reproduce
 
 ```bash
