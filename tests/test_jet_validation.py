@@ -135,12 +135,13 @@ needs_engine = pytest.mark.skipif(
 
 
 @needs_engine
-def test_the_study_runs_end_to_end_on_three_surfaces_and_reruns_from_its_cache(tmp_path, capsys):
+def test_the_study_runs_end_to_end_on_three_surfaces_and_reruns_from_its_cache(tmp_path, capsys, monkeypatch):
     """Acceptance (issue 11): ``validate-jet --quick``: flat plate, bucket and a random lattice
     surface with coarse SPH (r = 1.25 mm, a resolution study at 1.5 and 1.25 mm), then the
-    report again from the cache alone."""
-    out, cache = tmp_path / "reports", tmp_path / "cache"
-    argv = ["validate-jet", "--quick", "--cache-dir", str(cache), "--output-dir", str(out)]
+    report again from the cache alone, and as a stage of ``reproduce``."""
+    monkeypatch.chdir(tmp_path)  # the default cache: ./.sph-cache
+    out, cache = tmp_path / "reports", tmp_path / ".sph-cache"
+    argv = ["validate-jet", "--quick", "--output-dir", str(out)]
     assert main(argv) == 0
     assert "3 surfaces: thin-sheet model vs SPH Spearman" in capsys.readouterr().out
     table = pd.read_csv(out / "data" / "jet_validation_surfaces.csv").set_index("surface")
@@ -159,9 +160,26 @@ def test_the_study_runs_end_to_end_on_three_surfaces_and_reruns_from_its_cache(t
     again = pd.read_csv(out / "data" / "jet_validation_surfaces.csv").set_index("surface")
     assert again["sph_cached"].all()
     pd.testing.assert_series_equal(again[SPH_COLUMN], table[SPH_COLUMN])
-    assert (
-        json.loads((out / "data" / "jet_validation_provenance.json").read_text())["simulation_seconds"] == 0
+    provenance = json.loads((out / "data" / "jet_validation_provenance.json").read_text())
+    assert provenance["simulation_seconds"] == 0
+
+    from replication.cli.validate import reproduce_stage
+
+    path, note = reproduce_stage(tmp_path / "reproduced", True, "replication reproduce --quick")
+    assert note == "" and path.is_file()
+    staged = pd.read_csv(tmp_path / "reproduced" / "data" / "jet_validation_surfaces.csv").set_index(
+        "surface"
     )
+    pd.testing.assert_series_equal(staged[SPH_COLUMN], table[SPH_COLUMN])
+
+
+def test_reproduce_skips_the_study_without_a_filled_cache(tmp_path, monkeypatch):
+    from replication.cli.validate import reproduce_stage
+
+    monkeypatch.chdir(tmp_path)
+    path, note = reproduce_stage(tmp_path / "out", False, "replication reproduce")
+    assert path is None and ("run `replication validate-jet` first" in note or "not installed" in note)
+    assert not (tmp_path / "out").exists()
 
 
 @needs_engine

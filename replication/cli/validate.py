@@ -99,6 +99,35 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
     return results, path
 
 
+def reproduce_stage(out: Path, quick: bool, command: str) -> tuple[Path | None, str]:
+    """The study as a stage of ``replication reproduce``: reported from the SPH cache only, when
+    it holds the study (``replication validate-jet [--quick]`` fills it; the full study is hours
+    of SPH, and reproduce must not start that unasked).
+
+    Returns the report's path, or None and why the stage was skipped.
+    """
+    from replication.casestudy.sph import INSTALL_HINT, engine_available
+    from replication.casestudy.sph_batch import DEFAULT_CACHE_DIR
+    from replication.errors import SimulationError
+    from replication.experiments.jet_surface_set import set_path
+    from replication.experiments.jet_validation import ValidationConfig
+
+    if not engine_available():
+        return None, f"the SPH solver is not installed ({INSTALL_HINT})"
+    config = ValidationConfig.quick() if quick else ValidationConfig()
+    if not set_path(DEFAULT_CACHE_DIR, config).is_file():
+        flag = " --quick" if quick else ""
+        return None, f"no study in {DEFAULT_CACHE_DIR}/: run `replication validate-jet{flag}` first (SPH)"
+    args = argparse.Namespace(
+        quick=quick, timeout=None, cache_dir=None, executor="serial", workers=1, scheduler=None,
+        ga_run_dir=None, retry_failed=False, from_cache=True, rebuild_surfaces=False, invocation=command,
+    )  # fmt: skip
+    try:
+        return run_validation_report(args, out)[1], ""
+    except SimulationError as exc:
+        return None, f"{exc} (run `replication validate-jet`)"
+
+
 def _cmd_validate(args: argparse.Namespace) -> int:
     from replication.cli.reports import output_dir
 
