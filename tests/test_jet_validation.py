@@ -163,7 +163,7 @@ def test_the_study_runs_end_to_end_on_three_surfaces_and_reruns_from_its_cache(t
     provenance = json.loads((out / "data" / "jet_validation_provenance.json").read_text())
     assert provenance["simulation_seconds"] == 0
 
-    from replication.cli.validate import reproduce_stage
+    from replication.cli.validate_run import reproduce_stage
 
     path, note = reproduce_stage(tmp_path / "reproduced", True, "replication reproduce --quick")
     assert note == "" and path.is_file()
@@ -174,7 +174,7 @@ def test_the_study_runs_end_to_end_on_three_surfaces_and_reruns_from_its_cache(t
 
 
 def test_reproduce_skips_the_study_without_a_filled_cache(tmp_path, monkeypatch):
-    from replication.cli.validate import reproduce_stage
+    from replication.cli.validate_run import reproduce_stage
 
     monkeypatch.chdir(tmp_path)
     path, note = reproduce_stage(tmp_path / "out", False, "replication reproduce")

@@ -116,7 +116,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
                 continue
             path = run_sph_report(out, args.quick, args.invocation)
         elif name == "jet validation":  # issue 11: hours of SPH, so only from a filled cache
-            from replication.cli.validate import reproduce_stage
+            from replication.cli.validate_run import reproduce_stage
 
             path, note = reproduce_stage(out, args.quick, args.invocation)
             if path is None:
