@@ -161,6 +161,7 @@ def _sph_row(scored: Any, jet: JetConfig) -> dict[str, Any]:
         "sph_over_rho_q_v": r.mean_axial / jet.momentum_flux if ok else nan,
         "sph_over_measured_flux": r.mean_axial / r.measured_momentum_flux if ok else nan,
         "sph_std_N": r.std_axial if ok else nan,
+        "sph_drift": _drift(r) / r.measured_momentum_flux if ok else nan,
         "sph_fx_N": r.mean_force[0] if ok else nan,
         "sph_peak_N": r.peak_axial if ok else nan,
         "sph_mass_flow_ratio": r.mass_flow / jet.mass_flow if r is not None else nan,
@@ -172,6 +173,21 @@ def _sph_row(scored: Any, jet: JetConfig) -> dict[str, Any]:
         "sph_cached": scored.cached,
         "sph_key": scored.key,
     }
+
+
+def _drift(result: Any) -> float:
+    """Mean axial force of the second half of the averaging window minus that of the first (N):
+    how far from steady the flow still is."""
+    a, b = result.window
+    mid = (a + b) / 2
+    width = result.settings.bin_width
+    start = result.time
+    axial = -result.force[:, 2]
+    first = axial[(start >= a - 1e-12) & (start + width <= mid + 1e-12)]
+    second = axial[(start >= mid - 1e-12) & (start + width <= b + 1e-12)]
+    if first.size == 0 or second.size == 0:
+        return float("nan")
+    return float(second.mean() - first.mean())
 
 
 def _geometry(surfaces: Sequence[StudySurface]) -> tuple[pd.DataFrame, pd.DataFrame]:

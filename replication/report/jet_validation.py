@@ -51,6 +51,7 @@ SURFACE_HEADER = [
     "model",
     "SPH",
     "SPH spread",
+    "SPH drift",
     "model / SPH",
     "SPH wall [s]",
 ]
@@ -173,7 +174,9 @@ conservative there).
 ## Every surface
 
 Force / rho Q V by the thin-sheet model and by SPH at r = {radius:g} mm (data:
-`data/jet_validation_surfaces.csv`; the force series in `_series.csv`).
+`data/jet_validation_surfaces.csv`; the force series in `_series.csv`). SPH spread: standard
+deviation of the 1 ms means in the window; drift: the window's second half minus its first
+(the flow is not quite steady yet: a common, slow rise).
 
 {table(surface_rows(d), SURFACE_HEADER)}
 

@@ -81,7 +81,7 @@ def surface_rows(d: dict[str, Any]) -> list[list[str]]:
         [r["surface"], r["family"], fmt(r["ga_fitness_N"], ".4g"), fmt(r["model_over_rho_q_v"], ".3f"),
          fmt(r[SPH], ".3f") if r["sph_status"] == "ok" else f"*{r['sph_status']}*",
          fmt(r["sph_std_N"] / r["sph_N"] * r[SPH], ".2f") if r["sph_status"] == "ok" else "–",
-         fmt(r["model_over_sph"], ".2f"), fmt(r["sph_wall_s"], ".0f")]
+         fmt(r.get("sph_drift"), "+.2f"), fmt(r["model_over_sph"], ".2f"), fmt(r["sph_wall_s"], ".0f")]
         for _, r in s.iterrows()
     ]  # fmt: skip
 
