@@ -19,7 +19,11 @@ __all__ = [
     "OutputError",
     "SimulationError",
     "SolverUnavailableError",
+    "CheckpointError",
+    "ReportDataError",
+    "ExecutorError",
     "DuplicatePointsWarning",
+    "CloudFileWarning",
 ]
 
 
@@ -57,5 +61,21 @@ class SimulationError(ReplicationError):
     """A simulation that failed (blew up, timed out or crashed); the message gives the reason."""
 
 
+class CheckpointError(InputError):
+    """A GA run directory whose configuration or checkpoint is missing, malformed or inconsistent."""
+
+
+class ReportDataError(InputError):
+    """Saved report data (CSV/JSON under ``data/``) that are missing, malformed or incomplete."""
+
+
+class ExecutorError(ReplicationError):
+    """An executor that cannot be used (for example an unreachable dask scheduler)."""
+
+
 class DuplicatePointsWarning(UserWarning):
     """Points that share a projected position were merged into one vertex."""
+
+
+class CloudFileWarning(UserWarning):
+    """A point-cloud file that was read, but with a doubt worth telling the user about."""

@@ -25,12 +25,21 @@ import pytest  # noqa: E402
 
 @pytest.fixture(scope="session")
 def quick_reports(tmp_path_factory):
-    """``replication reproduce --quick`` once per session, run from a scratch directory."""
+    """``replication reproduce --quick`` once per session, run from a scratch directory.
+
+    The directory is a stand-in for a project checkout (the README and pyproject.toml beside
+    ``reports/``), so the run also shows what reproducing into a checkout does to its README.
+    """
     import os
+    import shutil
+    from pathlib import Path
 
     from replication.cli import main
 
     work = tmp_path_factory.mktemp("reproduce")
+    root = Path(__file__).resolve().parents[1]
+    for name in ("README.md", "pyproject.toml"):
+        shutil.copy(root / name, work / name)
     out = work / "reports"
     previous = os.getcwd()
     os.chdir(work)  # the GA's checkpoints go to ./casestudy-runs

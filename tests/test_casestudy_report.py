@@ -75,7 +75,7 @@ def test_casestudy_cli_json_and_resume(tmp_path, monkeypatch, capsys):
     # other settings are refused
     assert main(["casestudy", *TINY[:4], "--population", "8", "--executor", "serial", "--run-dir", "run",
                  "--output-dir", "out", "--resume"]) == 1  # fmt: skip
-    assert "differs in: population" in capsys.readouterr().err
+    assert "--population 8 (the run has 6)" in capsys.readouterr().err
 
 
 def test_casestudy_help(capsys):

@@ -174,7 +174,7 @@ def test_save_load_round_trip(tmp_path, name):
         ("g.txt", "1 2 3\n4 5 nan\n7 8 9\n1 inf 2\n", r"2 line\(s\): 2, 4"),
         ("h.dat", "1 2 3\n", "unsupported point-cloud file type '.dat'"),
         ("i.txt", b"\xff\xfe\x00binary", "not a UTF-8 text file"),
-        ("j.npy", b"not numpy", "not a readable .npy"),
+        ("j.npy", b"not numpy", "not a .npy array file"),
     ],
 )
 def test_bad_cloud_files(tmp_path, name, content, match):

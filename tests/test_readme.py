@@ -36,3 +36,28 @@ def test_readme_headline_block_matches_the_committed_reports():
     text = (ROOT / "README.md").read_text()
     block = text.split(START, 1)[1].split(END, 1)[0].strip().splitlines()
     assert block == headline(ROOT / "reports")
+
+
+def test_reproduce_into_a_checkout_refreshes_its_readme(quick_reports):
+    """The README's two commands in order stay green on any machine: ``replication reproduce``
+    into a checkout's reports/ rewrites the README headline block from the new data."""
+    from replication.report.index import END, START, headline
+
+    text = (quick_reports.parent / "README.md").read_text()
+    block = text.split(START, 1)[1].split(END, 1)[0].strip().splitlines()
+    assert block == headline(quick_reports) and block  # the quick run's numbers, not the committed ones
+    committed = (ROOT / "README.md").read_text()
+    assert text.split(START)[0] == committed.split(START)[0] and text.split(END)[1] == committed.split(END)[1]
+
+
+def test_reports_outside_a_checkout_touch_no_readme(tmp_path):
+    from replication.cli.outputs import checkout_readme
+
+    (tmp_path / "reports").mkdir()
+    (tmp_path / "README.md").write_text("<!-- headline:start -->\n<!-- headline:end -->\n")
+    assert checkout_readme(tmp_path / "reports") is None  # no pyproject.toml of this project
+    (tmp_path / "pyproject.toml").write_text('[project]\nname = "other"\n')
+    assert checkout_readme(tmp_path / "reports") is None
+    (tmp_path / "pyproject.toml").write_text('[project]\nname = "replication"\n')
+    assert checkout_readme(tmp_path / "reports") == tmp_path / "README.md"
+    assert checkout_readme(tmp_path / "reports-quick") is None  # only the canonical reports/

@@ -22,9 +22,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from replication.casestudy.ga import GAConfig, points_from_genome
+from replication.casestudy.interrupts import caused_by_interrupt, ignore_interrupts, quiet_spawn_context
 from replication.errors import DuplicatePointsWarning, InputError
 
-__all__ = ["Fitness", "Outcome", "SerialExecutor", "evaluate_batch", "executor", "EXECUTORS"]
+__all__ = [
+    "EXECUTORS",
+    "Fitness",
+    "Outcome",
+    "SerialExecutor",
+    "check_executor_options",
+    "evaluate_batch",
+    "executor",
+]
 
 EXECUTORS: tuple[str, ...] = ("auto", "serial", "process", "dask")
 
@@ -73,30 +82,92 @@ class SerialExecutor(cf.Executor):
 
 
 def evaluate_batch(
-    pool: cf.Executor, fitness: Callable[[np.ndarray], float], genomes: Sequence[np.ndarray]
+    pool: cf.Executor,
+    fitness: Callable[[np.ndarray], float],
+    genomes: Sequence[np.ndarray],
+    *,
+    interrupted: Callable[[], bool] = lambda: False,
 ) -> list[Outcome]:
     """Evaluate genomes on an executor; failures become Outcomes with an error message.
+
+    ``interrupted`` is polled before each submission and after each result (see
+    :class:`.interrupts.InterruptGuard`): once it is true the batch stops with
+    :class:`KeyboardInterrupt`, pending evaluations are cancelled, and an evaluation that
+    failed because of the interrupt is never taken for a failed evaluation.
 
     Raises
     ------
     concurrent.futures.BrokenExecutor
         When the executor itself broke (the batch should be retried on a new one).
+    KeyboardInterrupt
+        When the user interrupted the batch.
     """
-    futures = [pool.submit(fitness, g) for g in genomes]
-    outcomes = []
-    for future in futures:
-        try:
-            value = future.result()
-        except cf.BrokenExecutor:
-            raise
-        except Exception as exc:  # an evaluation failure is data, not a crash
-            outcomes.append(Outcome(None, f"{type(exc).__name__}: {exc}"))
-            continue
-        if isinstance(value, (int, float, np.floating)) and math.isfinite(float(value)):
-            outcomes.append(Outcome(float(value)))
-        else:
-            outcomes.append(Outcome(None, f"non-finite fitness {value!r}"))
+    futures: list[cf.Future] = []
+    outcomes: list[Outcome] = []
+    try:
+        for genome in genomes:
+            if interrupted():
+                raise KeyboardInterrupt
+            futures.append(pool.submit(fitness, genome))
+        for future in futures:
+            try:
+                value = future.result()
+            except cf.BrokenExecutor:
+                if interrupted():
+                    raise KeyboardInterrupt from None
+                raise
+            except Exception as exc:  # an evaluation failure is data, not a crash...
+                if interrupted() or caused_by_interrupt(exc):  # ...unless Ctrl-C caused it
+                    raise KeyboardInterrupt from exc
+                outcomes.append(Outcome(None, f"{type(exc).__name__}: {exc}"))
+                continue
+            if interrupted():
+                raise KeyboardInterrupt
+            if isinstance(value, (int, float, np.floating)) and math.isfinite(float(value)):
+                outcomes.append(Outcome(float(value)))
+            else:
+                outcomes.append(Outcome(None, f"non-finite fitness {value!r}"))
+    except BaseException:
+        for future in futures:
+            future.cancel()
+        raise
     return outcomes
+
+
+def check_executor_options(kind: str, workers: int | None = None, scheduler: str | None = None) -> None:
+    """Refuse option combinations an executor would silently ignore, and malformed addresses.
+
+    Raises
+    ------
+    InputError
+        An unknown executor, a non-positive worker count, ``workers`` or ``scheduler`` with
+        the serial executor, ``scheduler`` with the process pool, both ``workers`` and
+        ``scheduler`` (an existing cluster brings its own workers), or a scheduler address
+        that is malformed or names an unknown host.
+    """
+    if kind not in EXECUTORS:
+        raise InputError(f"unknown executor {kind!r}; choose one of {EXECUTORS}")
+    if workers is not None and (isinstance(workers, bool) or workers < 1):
+        raise InputError(f"workers must be a positive integer, got {workers!r}")
+    if kind == "serial" and workers is not None:
+        raise InputError(
+            f"--workers {workers} does not apply to the serial executor (it evaluates in this process); "
+            "use --executor process or dask"
+        )
+    if scheduler is not None and kind in ("serial", "process"):
+        raise InputError(
+            f"--scheduler names a dask cluster, which the {kind} executor does not use; "
+            "drop --executor or use --executor dask"
+        )
+    if scheduler is not None and workers is not None:
+        raise InputError(
+            "--workers starts a local cluster of that size; a cluster named by --scheduler "
+            "brings its own workers: give one of them"
+        )
+    if scheduler is not None:
+        from replication.casestudy.cluster import check_scheduler_address
+
+        check_scheduler_address(scheduler)
 
 
 @contextlib.contextmanager
@@ -115,36 +186,37 @@ def executor(
         number of CPUs).
     scheduler : str, optional
         Address of a running dask scheduler (``tcp://host:8786``); implies dask.
+
+    Raises
+    ------
+    InputError
+        Options that do not go together (:func:`check_executor_options`), a malformed
+        scheduler address, dask not installed.
+    ExecutorError
+        A scheduler that cannot be reached (see :mod:`.cluster`).
+
+    Notes
+    -----
+    Worker processes (pool or local dask cluster) do not take SIGINT, so Ctrl-C in a
+    terminal reaches the parent alone, which stops the run between evaluations (see
+    :mod:`.interrupts`); pending evaluations are cancelled on the way out.
     """
-    if kind not in EXECUTORS:
-        raise InputError(f"unknown executor {kind!r}; choose one of {EXECUTORS}")
-    if workers is not None and workers < 1:
-        raise InputError(f"workers must be positive, got {workers}")
+    check_executor_options(kind, workers, scheduler)
     n = workers or os.cpu_count() or 1
     if kind == "auto":
         kind = "dask" if scheduler else ("process" if n > 1 else "serial")
     if kind == "serial":
         yield SerialExecutor()
     elif kind == "process":
-        import multiprocessing
-
-        with cf.ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn")) as pool:
-            yield pool
-    else:
+        pool = cf.ProcessPoolExecutor(
+            max_workers=n, mp_context=quiet_spawn_context(), initializer=ignore_interrupts
+        )
         try:
-            from dask.distributed import Client, LocalCluster
-        except ImportError as exc:  # pragma: no cover - depends on the optional extra
-            raise InputError(
-                "dask evaluation needs the optional extra: pip install 'replication[dask]'"
-            ) from exc
-        if scheduler:
-            with Client(scheduler) as client:
-                yield client.get_executor(pure=False)
-        else:
-            with (
-                LocalCluster(
-                    n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None
-                ) as cluster,
-                Client(cluster) as client,
-            ):
-                yield client.get_executor(pure=False)
+            yield pool
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+    else:
+        from replication.casestudy.cluster import dask_executor
+
+        with dask_executor(scheduler, n) as pool:
+            yield pool

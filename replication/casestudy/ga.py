@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from replication.casestudy.jet import DEFAULT_RESOLUTION, JetConfig
+from replication.casestudy.units import to_millimetres
 from replication.errors import InputError
 from replication.surfaces.cloud import lattice_values
 
@@ -100,7 +101,7 @@ class GAConfig:
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
             raise InputError(f"GA seed must be a non-negative integer, got {self.seed!r}")
         if self.jet.domain is not None:  # every lattice point must lie in the jet model's domain
-            domain_mm = np.asarray(self.jet.domain) * 1e3
+            domain_mm = to_millimetres(self.jet.domain)
             if lo.min() < 0 or np.any(hi > domain_mm * (1 + 1e-9)):
                 raise InputError(
                     f"box {self.box} (mm) must lie inside the jet domain {domain_mm.tolist()} mm"

@@ -62,7 +62,8 @@ from numpy.typing import ArrayLike
 
 from replication.casestudy import _sheet
 from replication.casestudy.jetconfig import JetConfig  # re-exported: jet.JetConfig keeps working
-from replication.casestudy.mesh import MM, check_domain, check_height_field, weld
+from replication.casestudy.mesh import check_domain, check_height_field, weld
+from replication.casestudy.units import to_metres
 from replication.errors import DegenerateInputError, InputError
 from replication.surfaces.interpolate import locate, triangle_neighbors
 
@@ -127,7 +128,7 @@ class JetForce:
     @property
     def axial_force(self) -> float:
         """Force along the jet axis (N), positive when the jet pushes the surface along -z."""
-        return float(-self.force[2])
+        return float(-self.force[2]) + 0.0  # + 0.0: a jet that misses gives 0 N, not -0 N
 
     def as_dict(self) -> dict[str, Any]:
         """Plain numbers (SI units) for JSON and tables."""
@@ -277,7 +278,7 @@ def jet_force(
 
     config = JetConfig() if config is None else config
     resolution = _check_resolution(resolution)
-    pts = as_cloud(points, name="surface points") * MM
+    pts = to_metres(as_cloud(points, name="surface points"))
     try:
         tri = np.asarray(triangles)
     except (TypeError, ValueError) as exc:
@@ -317,7 +318,7 @@ def surface_force(
             f"the jet travels along -z, so the surface must be a height field over x-y (depth axis z), "
             f"got depth axis {surface.depth_axis_name}; build it with adt(points, depth='z')"
         )
-    pts = np.asarray(surface.points, dtype=np.float64) * MM
+    pts = to_metres(surface.points)
     if not np.all(np.isfinite(pts)):
         raise InputError("surface points must be finite")
     check_domain(pts, config)

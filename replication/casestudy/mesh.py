@@ -11,11 +11,10 @@ import numpy as np
 
 from replication.casestudy import _sheet
 from replication.casestudy.jetconfig import JetConfig
+from replication.casestudy.units import to_millimetres
 from replication.errors import InputError
 
-__all__ = ["MM", "check_domain", "check_height_field", "weld"]
-
-MM = 1e-3  # metres per millimetre
+__all__ = ["check_domain", "check_height_field", "weld"]
 
 
 def check_domain(points: np.ndarray, config: JetConfig, used: np.ndarray | None = None) -> None:
@@ -28,7 +27,8 @@ def check_domain(points: np.ndarray, config: JetConfig, used: np.ndarray | None 
         i = int(points[:, 1].argmin())
         raise InputError(
             f"the half jet needs the surface on the side y >= 0 of its symmetry plane, but vertex "
-            f"{index[i]} has y = {points[i, 1] / MM:.6g} mm; use the full jet for a surface on both sides"
+            f"{index[i]} has y = {to_millimetres(points[i, 1]):.6g} mm; use the full jet for a surface on "
+            "both sides"
         )
     if config.domain is None:
         return
@@ -38,11 +38,12 @@ def check_domain(points: np.ndarray, config: JetConfig, used: np.ndarray | None 
     outside = np.flatnonzero(((points < lower) | (points > upper)).any(axis=1))
     if outside.size:
         i = int(outside[0])
-        x, y, z = points[i] / MM
-        y_lo = -width / MM if config.full_jet else 0.0
+        x, y, z = to_millimetres(points[i])
+        length_mm, width_mm, depth_mm = to_millimetres([length, width, depth])
+        y_lo = -width_mm if config.full_jet else 0.0
         raise InputError(
             f"surface vertex {index[i]} at ({x:.6g}, {y:.6g}, {z:.6g}) mm lies outside the domain "
-            f"x 0..{length / MM:g}, y {y_lo:g}..{width / MM:g}, z 0..{depth / MM:g} mm "
+            f"x 0..{length_mm:g}, y {y_lo:g}..{width_mm:g}, z 0..{depth_mm:g} mm "
             f"({outside.size} vertices outside); enlarge the domain or set it to None"
         )
 
@@ -58,7 +59,7 @@ def weld(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndar
     if differs.size:
         i = int(used[differs[0]])
         j = int(used[first[inverse.ravel()[differs[0]]]])
-        x, y = points[i, :2] / MM
+        x, y = to_millimetres(points[i, :2])
         raise InputError(
             f"vertices {j} and {i} share the position (x, y) = ({x:.6g}, {y:.6g}) mm at different heights: "
             "the surface is not a height field z(x, y)"

@@ -1,4 +1,13 @@
-"""``replication casestudy``: the water-jet GA (paper section 6) and its report (Figs. 8, 9)."""
+"""``replication casestudy``: the water-jet GA (paper section 6) and its report (Figs. 8, 9).
+
+Everything that can be checked is checked before the GA starts: the executor options, the
+run directory (writable, and on ``--resume`` its ``config.json`` and checkpoints valid), and
+the reports directory. ``--resume`` takes the run's settings from its ``config.json``; only
+settings given explicitly are compared with them. Where the report goes: ``--output-dir``
+when given; else ``reports/`` for the paper's settings, ``reports-quick/`` for the
+``--quick`` settings, and the run's own directory (``RUN_DIR/report/``) for any other
+settings, so that a trial run never overwrites the committed paper report.
+"""
 
 from __future__ import annotations
 
@@ -6,87 +15,216 @@ import argparse
 import dataclasses
 import datetime as dt
 import functools
+import shlex
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
 from replication.cli.common import emit_json, positive_int, seed
+from replication.cli.outputs import (
+    DEFAULT_DIR,
+    QUICK_DIR,
+    finish_reports,
+    missing_dirs,
+    remove_unused_run_dir,
+)
+from replication.cli.progress import Progress
 
-EPILOG = """\
+EPILOG = f"""\
 examples:
   replication casestudy                       the paper's GA: 3 runs x 50 generations x 48
-  replication casestudy --quick               a reduced GA (smoke test) into reports-quick/
+  replication casestudy --quick               a reduced GA (smoke test) into {QUICK_DIR}/
   replication casestudy --workers 2           evaluate on a local process pool of 2 workers
   replication casestudy --executor dask --workers 4          a local dask cluster
   replication casestudy --scheduler tcp://host:8786          an existing dask cluster
   replication casestudy --run-dir casestudy-runs/run-X --resume   continue an interrupted run
 
 Every generation is checkpointed (JSON) in the run directory, printed at the start; after a
-crash or Ctrl-C, --resume with the same --run-dir continues where the run stopped and ends
-exactly as an uninterrupted run would. Resuming with other settings is refused.
+crash or Ctrl-C (exit status 130), --resume with the same --run-dir continues where the run
+stopped, with the settings recorded in the run directory, and ends exactly as an
+uninterrupted run would. Settings given together with --resume must match the recorded ones.
+
+The report goes to {DEFAULT_DIR}/ only for the paper's settings ({QUICK_DIR}/ with --quick); a run
+with other settings reports into its run directory (RUN_DIR/report/), unless --output-dir names
+a directory.
 """
 
+SETTINGS = ("runs", "generations", "population", "seed")
 
-def _config(args: argparse.Namespace) -> Any:
+
+@dataclasses.dataclass(frozen=True)
+class Plan:
+    """What a case-study command will do, decided and checked before any work."""
+
+    config: Any  # GAConfig
+    run_dir: Path
+    resume: bool
+    out: Path
+    hint: str  # the command that resumes this run
+    note: str  # why the report goes where it goes ("" for the paper's or an explicit directory)
+    created: tuple[Path, ...]  # directories the command will create for the run (removed on failure)
+    quick: bool = False  # the --quick settings (also when resumed without --quick)
+    done_generations: int = 0
+
+
+def _requested_config(args: argparse.Namespace) -> Any:
     from replication.casestudy.ga import GAConfig
     from replication.experiments.casestudy import quick_ga_config
 
     base = quick_ga_config() if args.quick else GAConfig()
-    changes = {
-        k: getattr(args, k)
-        for k in ("runs", "generations", "population", "seed")
-        if getattr(args, k) is not None
-    }
+    changes = {k: getattr(args, k) for k in SETTINGS if getattr(args, k) is not None}
     return dataclasses.replace(base, **changes) if changes else base
 
 
-def run_and_report(args: argparse.Namespace, out: Path) -> tuple[Any, Path, Path]:
-    """Run the case study as the arguments say; save its data and render the report."""
-    from tqdm import tqdm
+def _new_run_dir() -> Path:
+    stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    run_dir = Path("casestudy-runs") / f"run-{stamp}"
+    k = 2
+    while run_dir.exists():
+        run_dir = Path("casestudy-runs") / f"run-{stamp}-{k}"
+        k += 1
+    return run_dir
 
-    from replication.casestudy.evaluate import executor
+
+def _default_report_dir(config: Any, run_dir: Path) -> tuple[Path, str]:
+    from replication.casestudy.ga import GAConfig
+    from replication.experiments.casestudy import differences_from_paper, quick_ga_config
+
+    if config == GAConfig():
+        return Path(DEFAULT_DIR), ""
+    if config == quick_ga_config():
+        return Path(QUICK_DIR), ""
+    differ = "; ".join(differences_from_paper(config.as_dict()))
+    return run_dir / "report", (
+        f"settings differ from the paper's ({differ}): the report goes to {run_dir / 'report'}/, "
+        f"not {DEFAULT_DIR}/ (name a directory with --output-dir)"
+    )
+
+
+def _resume_config(args: argparse.Namespace, run_dir: Path) -> Any:
+    from replication.casestudy.rundir import CONFIG_NAME, read_config
+    from replication.errors import InputError, OutputError
+
+    if run_dir.exists() and not run_dir.is_dir():
+        raise OutputError(f"--run-dir {run_dir} is a file, not a run directory")
+    recorded = read_config(run_dir) if run_dir.is_dir() else None
+    if recorded is None:
+        raise InputError(f"nothing to resume: {run_dir} holds no GA run (no {CONFIG_NAME})")
+    wanted = _requested_config(args)
+    given = [k for k in SETTINGS if getattr(args, k) is not None]
+    if args.quick:  # --quick stands for every setting of the quick configuration
+        given = list(SETTINGS)
+    differ = [
+        f"--{k} {getattr(wanted, k)} (the run has {getattr(recorded, k)})"
+        for k in given
+        if getattr(wanted, k) != getattr(recorded, k)
+    ]
+    if differ or (args.quick and wanted != recorded):
+        what = ", ".join(differ) if differ else "--quick (the run was not a quick run)"
+        raise InputError(
+            f"{run_dir} holds a run with other settings: {what}; resume without these options to continue "
+            "it with its recorded settings, or start a new run directory"
+        )
+    return recorded
+
+
+def plan_casestudy(args: argparse.Namespace) -> Plan:
+    """Decide and check the run directory, the settings and the reports directory."""
+    from replication.casestudy.checkpoints import load_run
+    from replication.casestudy.evaluate import check_executor_options
+    from replication.casestudy.rundir import checkpoints, read_config
     from replication.errors import InputError
+    from replication.io.paths import check_writable_dir
+
+    check_executor_options(args.executor, args.workers, args.scheduler)
+    if args.resume:
+        if not args.run_dir:
+            raise InputError("--resume continues the runs in --run-dir DIR: name the directory to resume")
+        run_dir = Path(args.run_dir)
+        config = _resume_config(args, run_dir)
+    else:
+        config = _requested_config(args)
+        run_dir = Path(args.run_dir) if args.run_dir else _new_run_dir()
+        if run_dir.is_dir():
+            found = checkpoints(run_dir)
+            if found:
+                raise InputError(
+                    f"{run_dir} holds GA checkpoints ({found[0].name}): pass --resume to continue them, "
+                    "or use a new run directory"
+                )
+            recorded = read_config(run_dir)
+            if recorded is not None and recorded != config:
+                raise InputError(
+                    f"{run_dir} holds a run with other settings: resume it with --resume, or use a new run "
+                    "directory"
+                )
+    check_writable_dir(run_dir, "--run-dir" if args.run_dir else "the GA run directory")
+    done = 0
+    if run_dir.is_dir():  # validate every checkpoint now, not after minutes of computing
+        for k in range(config.runs):
+            state = load_run(run_dir, k, config)
+            done += 0 if state is None else state.generation
+    default_out, note = _default_report_dir(config, run_dir)
+    out = Path(args.output_dir) if args.output_dir else default_out
+    check_writable_dir(out, "--output-dir" if args.output_dir else "the reports directory")
+    from replication.experiments.casestudy import quick_ga_config
+
+    hint = ["replication", "casestudy", "--run-dir", str(run_dir), "--resume"]
+    if out.resolve() != default_out.resolve():
+        hint += ["--output-dir", str(out)]
+    return Plan(
+        config=config, run_dir=run_dir, resume=args.resume, out=out, hint=shlex.join(hint),
+        note="" if args.output_dir else note, created=missing_dirs(run_dir),
+        quick=config == quick_ga_config(), done_generations=done,
+    )  # fmt: skip
+
+
+def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
+    """Run the case study as planned; save its data and render the report into ``plan.out``."""
+    from replication.casestudy.evaluate import executor
     from replication.experiments.casestudy import run_casestudy
     from replication.report.casestudy import render_casestudy, save_casestudy_data
 
-    config = _config(args)
-    if args.resume and not args.run_dir:
-        raise InputError("--resume continues the runs in --run-dir DIR: name the directory to resume")
-    if args.resume and not any(Path(args.run_dir).glob("run-*.json")):
-        raise InputError(f"nothing to resume: {args.run_dir} holds no GA checkpoint (run-*.json)")
-    stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
-    run_dir = Path(args.run_dir) if args.run_dir else Path("casestudy-runs") / f"run-{stamp}"
-    print(f"GA run directory: {run_dir} (resume with --run-dir {run_dir} --resume)", file=sys.stderr)
+    config = plan.config
+    action = "resuming" if plan.resume else "after an interruption, resume with"
+    print(f"GA run directory: {plan.run_dir} ({action}: {plan.hint})", file=sys.stderr)
     pool = functools.partial(executor, args.executor, workers=args.workers, scheduler=args.scheduler)
-    with tqdm(
-        total=config.runs * config.generations, desc="GA generations", file=sys.stderr, leave=False
-    ) as bar:
+    try:
+        with Progress(
+            config.runs * config.generations, "GA generations", initial=plan.done_generations
+        ) as bar:
 
-        def tick(state: Any) -> None:
-            bar.set_postfix(run=state.run, best=f"{state.history[-1]['best_so_far']:.3f} N")
-            bar.update(1)
+            def tick(state: Any) -> None:
+                bar.update(1, run=state.run, best=f"{state.history[-1]['best_so_far']:.3f} N")
 
-        try:
             results = run_casestudy(
-                config, run_dir=run_dir, pool_factory=pool, resume=args.resume, on_generation=tick,
-                command=args.invocation, quick=args.quick, timing_repeats=20 if args.quick else 100,
+                config, run_dir=plan.run_dir, pool_factory=pool, resume=plan.resume, on_generation=tick,
+                command=args.invocation, quick=plan.quick, timing_repeats=20 if plan.quick else 100,
             )  # fmt: skip
-        except KeyboardInterrupt:
-            print(f"interrupted: resume with --run-dir {run_dir} --resume", file=sys.stderr)
-            raise
-    save_casestudy_data(results, out)
-    return results, render_casestudy(out), run_dir
+    except KeyboardInterrupt:
+        from replication.casestudy.rundir import CONFIG_NAME
+
+        if (plan.run_dir / CONFIG_NAME).is_file():
+            saved = f"every completed generation is saved in {plan.run_dir}; resume with: {plan.hint}"
+        else:
+            saved = "the GA had not started: nothing to resume"
+        print(f"interrupted: {saved}", file=sys.stderr)
+        raise
+    except BaseException:
+        remove_unused_run_dir(plan.run_dir, plan.created)
+        raise
+    save_casestudy_data(results, plan.out)
+    return results, render_casestudy(plan.out)
 
 
 def _cmd_casestudy(args: argparse.Namespace) -> int:
-    from replication.cli.reports import output_dir
-    from replication.report.index import render_index
-
-    out = output_dir(args)
+    plan = plan_casestudy(args)
+    if plan.note:
+        print(plan.note, file=sys.stderr)
     start = time.perf_counter()
-    results, path, run_dir = run_and_report(args, out)
-    render_index(out)
+    results, path = run_and_report(plan, args)
+    finish_reports(plan.out)
     history = results.history
     if args.json:
         emit_json({
@@ -98,28 +236,27 @@ def _cmd_casestudy(args: argparse.Namespace) -> int:
             "saved_by_cache": int(results.runs["cache_hits"].sum()),
             "failures": int(results.runs["failures"].sum()),
             "reference_shapes_N": dict(zip(results.shapes["shape"], results.shapes["axial_N"])),
-            "run_dir": str(run_dir), "report": str(path), "seconds": time.perf_counter() - start,
+            "run_dir": str(plan.run_dir), "report": str(path), "seconds": time.perf_counter() - start,
         })  # fmt: skip
         return 0
     for _, r in results.runs.iterrows():
         print(f"run {r['run']}: best force {r['best_N']:.4f} N after {r['evaluations']} evaluations "
               f"({r['cache_hits']} saved by the cache, {r['failures']} failed)")  # fmt: skip
-    print(f"wrote {path} ({time.perf_counter() - start:.1f} s; GA checkpoints in {run_dir})")
+    print(f"wrote {path} ({time.perf_counter() - start:.1f} s; GA checkpoints in {plan.run_dir})")
     return 0
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the casestudy subcommand."""
     from replication.casestudy.evaluate import EXECUTORS
-    from replication.cli.reports import DEFAULT_DIR, QUICK_DIR
 
     p = sub.add_parser(
         "casestudy",
-        help="the water-jet genetic algorithm (section 6) into reports/casestudy.md (Figs. 8, 9)",
+        help=f"the water-jet genetic algorithm (section 6) into {DEFAULT_DIR}/casestudy.md (Figs. 8, 9)",
         description=(
             "Run the paper's genetic algorithm, which shapes a 101-point ADT surface to maximise the "
             "force of a water jet (scored by a validated thin-sheet momentum model), and write "
-            "reports/casestudy.md with Figs. 8 and 9."
+            f"{DEFAULT_DIR}/casestudy.md with Figs. 8 and 9 (other settings: RUN_DIR/report/)."
         ),
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -134,7 +271,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--run-dir", metavar="DIR", help="checkpoint directory (default: casestudy-runs/run-<time>)"
     )
-    p.add_argument("--resume", action="store_true", help="continue the runs checkpointed in --run-dir")
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the runs checkpointed in --run-dir, with the settings recorded there",
+    )
     p.add_argument(
         "--executor", choices=EXECUTORS, default="auto", help="where fitness is evaluated (default auto)"
     )
@@ -142,6 +283,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--scheduler", metavar="ADDRESS", help="address of a running dask scheduler (implies dask)"
     )
-    p.add_argument("--output-dir", metavar="DIR", help=f"reports directory (default {DEFAULT_DIR}/)")
+    p.add_argument(
+        "--output-dir",
+        metavar="DIR",
+        help=f"reports directory (default: {DEFAULT_DIR}/ for the paper's settings, {QUICK_DIR}/ for "
+        "--quick, else RUN_DIR/report/)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object with the results")
     p.set_defaults(func=_cmd_casestudy)

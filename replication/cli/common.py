@@ -17,14 +17,16 @@ from replication.errors import DuplicatePointsWarning, InputError
 __all__ = [
     "add_cloud_source",
     "add_frame_options",
-    "check_output",
     "emit_json",
+    "finite_positive",
     "frame_kwargs",
     "load_or_generate",
     "pair",
     "positive_int",
-    "seed",
+    "probability",
     "relay_warnings",
+    "seed",
+    "warm_up",
 ]
 
 
@@ -47,6 +49,29 @@ def _int_at_least(minimum: int, what: str):
 positive_int = _int_at_least(1, "a positive integer")
 #: argparse type: a non-negative integer seed.
 seed = _int_at_least(0, "a non-negative integer seed")
+
+
+def _float(text: str, what: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+
+
+def finite_positive(text: str) -> float:
+    """argparse type: a finite number > 0 (``inf`` and ``nan`` are refused)."""
+    value = _float(text, "a positive number")
+    if not (np.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a finite positive number, got {text!r}")
+    return value
+
+
+def probability(text: str) -> float:
+    """argparse type: a number strictly between 0 and 1."""
+    value = _float(text, "a number between 0 and 1")
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"expected a number strictly between 0 and 1, got {text!r}")
+    return value
 
 
 def pair(text: str) -> tuple[int, int]:
@@ -140,31 +165,43 @@ def load_or_generate(args: argparse.Namespace) -> tuple[np.ndarray, str, dict[st
         "box": [box.xmin, box.xmax, box.ymin, box.ymax, box.zmin, box.zmax],
         "step": args.step,
     }
-    if args.save_cloud:
-        from replication.io import save_cloud
-
-        meta["cloud_file"] = args.save_cloud
-        meta["cloud_bytes"] = save_cloud(cloud, args.save_cloud)
     return cloud, f"{args.random} random points (seed {seed})", meta
 
 
-def check_output(path: str | None) -> None:
-    """Fail before any work when the output directory is missing."""
-    if path:
-        from replication.io.atomic import check_output_path
+def warm_up(kind: str, args: argparse.Namespace) -> float:
+    """Load the compiled kernels a build uses (once per process); return the seconds it took.
 
-        check_output_path(path)
+    Timings reported as ``build_seconds`` then measure the build itself, not the start-up.
+    """
+    import time
+
+    u, v = np.meshgrid([0.0, 1.0, 2.0], [0.0, 1.0, 2.0])
+    points = np.column_stack([u.ravel(), v.ravel(), 0.1 * (u * v).ravel()])  # 3 x 3: enough for degree 2
+    start = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if kind == "nurbs":
+            from replication.surfaces.nurbs import fit_nurbs
+
+            fit_nurbs(points, tessellation=(3, 3), evaluator=args.evaluator, backend=args.backend)
+        else:
+            from replication.surfaces import adt
+
+            adt(points, depth="z", backend=args.backend)
+    return time.perf_counter() - start
 
 
 @contextlib.contextmanager
 def relay_warnings() -> Iterator[list[warnings.WarningMessage]]:
-    """Collect warnings; on exit print all but duplicate merges (reported by the command)."""
+    """Collect warnings; on exit (an error too) print all but duplicate merges (reported by the command)."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        yield caught
-    for w in caught:
-        if not issubclass(w.category, DuplicatePointsWarning):
-            print(f"warning: {w.message}", file=sys.stderr)
+        try:
+            yield caught
+        finally:
+            for w in caught:
+                if not issubclass(w.category, DuplicatePointsWarning):
+                    print(f"warning: {w.message}", file=sys.stderr)
 
 
 def _jsonable(value: Any) -> Any:

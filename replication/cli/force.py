@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -51,6 +52,7 @@ def _load(path: str) -> tuple[Any, Any, str, int]:
 
 def _cmd_force(args: argparse.Namespace) -> int:
     from replication.casestudy import JetConfig, jet_force
+    from replication.casestudy.units import to_metres, to_millimetres
     from replication.cli.sph import check_force_options, force_sph
     from replication.errors import InputError
 
@@ -68,12 +70,13 @@ def _cmd_force(args: argparse.Namespace) -> int:
         raise InputError(
             f"--domain sizes must be positive millimetres, got {' '.join(map(str, args.domain))}"
         )
-    domain = None if args.no_domain else tuple(v * 1e-3 for v in (args.domain or (36.0, 30.0, 13.0)))
+    # millimetres -> metres by the model's one conversion (replication.casestudy.units)
+    domain = None if args.no_domain else tuple(to_metres(args.domain or (36.0, 30.0, 13.0)).tolist())
     config = JetConfig(
-        diameter=args.diameter * 1e-3,
+        diameter=float(to_metres(args.diameter)),
         velocity=args.velocity,
         density=args.density,
-        center=(args.center[0] * 1e-3, args.center[1] * 1e-3),
+        center=tuple(to_metres(args.center).tolist()),
         full_jet=args.full_jet,
         domain=domain,
     )
@@ -86,6 +89,12 @@ def _cmd_force(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     result = jet_force(points, triangles, config, resolution=args.resolution)
     seconds = time.perf_counter() - start
+    if result.n_streamlets_hit == 0:
+        print(
+            f"warning: the jet misses the surface: none of its {result.n_streamlets} streamlets strikes it, "
+            "so the force is 0 N (check --center and where the surface lies)",
+            file=sys.stderr,
+        )
     report: dict[str, Any] = {
         "input": args.input,
         "vertices": int(points.shape[0]),
@@ -97,7 +106,7 @@ def _cmd_force(args: argparse.Namespace) -> int:
             "velocity_m_s": config.velocity,
             "density_kg_m3": config.density,
             "full_jet": config.full_jet,
-            "domain_mm": None if domain is None else [round(v * 1e3, 9) for v in domain],
+            "domain_mm": None if domain is None else [round(v, 9) for v in to_millimetres(domain).tolist()],
         },
         **result.as_dict(),
         "momentum_flux_N": config.momentum_flux,
@@ -107,7 +116,7 @@ def _cmd_force(args: argparse.Namespace) -> int:
         emit_json(report)
         return 0
     jet = "full jet" if config.full_jet else "half jet (y >= 0, symmetry plane y = 0)"
-    fx, fy, fz = result.force
+    fx, fy, fz = (float(v) + 0.0 for v in result.force)  # + 0.0: no "-0"
     print(f"water-jet force on {args.input} ({what})")
     print(
         f"{jet}: {args.diameter:g} mm at {config.velocity:g} m/s along -z, "

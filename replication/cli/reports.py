@@ -3,27 +3,18 @@
 from __future__ import annotations
 
 import argparse
-import sys
 import time
-from collections.abc import Iterable
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-DEFAULT_DIR = "reports"
-QUICK_DIR = "reports-quick"
+from replication.cli.casestudy import plan_casestudy, run_and_report
+from replication.cli.common import positive_int
+from replication.cli.outputs import DEFAULT_DIR, QUICK_DIR, finish_reports, planned_output_dir
+from replication.cli.progress import progress_bar
 
-
-def progress_bar(items: Iterable[Any], description: str, total: int) -> Iterable[Any]:
-    """A tqdm progress bar on stderr (plain lines when stderr is not a terminal)."""
-    from tqdm import tqdm
-
-    return tqdm(items, desc=description, total=total, file=sys.stderr, leave=False, dynamic_ncols=True)
-
-
-def output_dir(args: argparse.Namespace) -> Path:
-    out = Path(args.output_dir or (QUICK_DIR if getattr(args, "quick", False) else DEFAULT_DIR))
-    out.mkdir(parents=True, exist_ok=True)
-    return out
+#: The markdown files ``replication report`` may write.
+RENDERED = ("table1.md", "sph.md", "casestudy.md", "performance.md", "index.md")
 
 
 def _run_table1(out: Path, quick: bool, command: str) -> Path:
@@ -36,49 +27,96 @@ def _run_table1(out: Path, quick: bool, command: str) -> Path:
     return render_table1(out)
 
 
-def _cmd_table1(args: argparse.Namespace) -> int:
-    from replication.report.index import render_index
+def _said(written: list[Path], out: Path) -> None:
+    """Print what :func:`finish_reports` wrote besides the index (the README headline block)."""
+    for path in written[1:]:
+        print(f"refreshed the headline block of {path} from {out}/data (the reports beside it)")
 
-    out = output_dir(args)
+
+def _cmd_table1(args: argparse.Namespace) -> int:
+    out = planned_output_dir(args)
     start = time.perf_counter()
     path = _run_table1(out, args.quick, args.invocation)
-    render_index(out)
+    written = finish_reports(out)
     print(f"wrote {path} ({time.perf_counter() - start:.1f} s; data in {out / 'data'})")
+    _said(written, out)
     return 0
 
 
+def _render(render: Callable[[Path], Any], name: str, out: Path) -> Any:
+    """Render one report; data that do not fit the renderer become one clear line."""
+    from replication.errors import ReplicationError, ReportDataError
+
+    try:
+        return render(out)
+    except ReplicationError:
+        raise
+    except (KeyError, ValueError, TypeError, IndexError, AttributeError) as exc:
+        raise ReportDataError(
+            f"the {name} data under {out / 'data'} are incomplete or inconsistent ({type(exc).__name__}: "
+            f"{exc}); regenerate them with `replication {name}`"
+        ) from exc
+
+
+def _check_readme(readme: str, out: Path) -> Path:
+    from replication.errors import InputError
+    from replication.io.paths import check_distinct
+    from replication.report.index import END, START
+
+    path = Path(readme)
+    if not path.exists():
+        raise InputError(f"--readme {path}: no such file")
+    if not path.is_file():
+        raise InputError(f"--readme {path} is a directory, not a README file")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"--readme {path}: cannot read it as UTF-8 text ({exc})") from exc
+    if START not in text or END not in text:
+        raise InputError(f"--readme {path} has no {START} ... {END} block to fill")
+    data = sorted((out / "data").glob("*")) if (out / "data").is_dir() else []
+    check_distinct(
+        [("--readme", path), *((f"the report {name}", out / name) for name in RENDERED)],
+        [("report data", p) for p in data],
+    )
+    return path
+
+
 def _cmd_report(args: argparse.Namespace) -> int:
+    from replication.errors import ReportDataError
+    from replication.io.paths import same_file
     from replication.report.casestudy import render_casestudy
-    from replication.report.index import render_index
+    from replication.report.index import update_readme
     from replication.report.table1 import render_table1
 
     out = Path(args.output_dir or DEFAULT_DIR)
+    if not out.is_dir():
+        what = "is a file" if out.exists() else "does not exist"
+        raise ReportDataError(f"reports directory {out} {what}: run `replication reproduce` first")
+    readme = _check_readme(args.readme, out) if args.readme else None
     written = []
     if args.performance:
         from replication.report.performance import render_performance
 
         written.append(render_performance(args.asv_results, out, commits=args.commits))
     if (out / "data" / "table1_provenance.json").is_file():
-        written.append(render_table1(out))
+        written.append(_render(render_table1, "table1", out))
     if (out / "data" / "sph_provenance.json").is_file():
         from replication.report.sph import render_sph
 
-        written.append(render_sph(out))
+        written.append(_render(render_sph, "sph", out))
     if (out / "data" / "jet_validation_provenance.json").is_file():  # issue 11: the validation study
         from replication.report.jet_validation import render_jet_validation
 
-        written.append(render_jet_validation(out))
+        written.append(_render(render_jet_validation, "validate-jet", out))
     if (out / "data" / "casestudy_provenance.json").is_file():
-        written.append(render_casestudy(out))
+        written.append(_render(render_casestudy, "casestudy", out))
     if not written:
-        from replication.errors import CloudFileError
-
-        raise CloudFileError(f"no report data under {out / 'data'}: run `replication reproduce` first")
-    written.append(render_index(out))
-    if args.readme:
-        from replication.report.index import update_readme
-
-        written.append(update_readme(args.readme, out))
+        raise ReportDataError(f"no report data under {out / 'data'}: run `replication reproduce` first")
+    finished = _render(finish_reports, "reproduce", out)  # the index, and a checkout's README
+    written += finished
+    if readme is not None and not any(same_file(readme, path) for path in finished):
+        written.append(update_readme(readme, out))
     for path in written:
         print(f"wrote {path}")
     return 0
@@ -96,10 +134,13 @@ STAGES = (
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    from replication.cli.casestudy import run_and_report
-    from replication.report.index import render_index
-
-    out = output_dir(args)
+    out = planned_output_dir(args)
+    ga_args = argparse.Namespace(
+        quick=args.quick, runs=None, generations=None, population=None, seed=None, run_dir=None,
+        resume=False, executor="auto", workers=None, scheduler=None, invocation=args.invocation,
+        output_dir=str(out), json=False,
+    )  # fmt: skip
+    plan = plan_casestudy(ga_args)  # checks the GA's run directory before the first stage
     kind = "quick (reduced) run" if args.quick else "full run"
     print(f"replication reproduce: {kind} into {out}/")
     start = time.perf_counter()
@@ -123,14 +164,11 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
                 print(f"  [skipped] {name}: {note}")
                 continue
         else:
-            ga_args = argparse.Namespace(
-                quick=args.quick, runs=None, generations=None, population=None, seed=None, run_dir=None,
-                resume=False, executor="auto", workers=None, scheduler=None, invocation=args.invocation,
-            )  # fmt: skip
-            path = run_and_report(ga_args, out)[1]
+            path = run_and_report(plan, ga_args)[1]
+        written = finish_reports(out)  # after each stage, so an interrupted run leaves them consistent
         print(f"  [done] {name}: {what} -> {path} ({time.perf_counter() - t0:.1f} s)")
-    index = render_index(out)
-    print(f"wrote {index}; total {time.perf_counter() - start:.1f} s")
+    print(f"wrote {written[0]}; total {time.perf_counter() - start:.1f} s")
+    _said(written, out)
     return 0
 
 
@@ -143,7 +181,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         p = sub.add_parser(
             name,
             help=helptext,
-            description=helptext[0].upper() + helptext[1:] + ". Long stages show a progress bar on stderr.",
+            description=helptext[0].upper() + helptext[1:] + ". Long stages show a progress bar on stderr. "
+            f"Written into {DEFAULT_DIR}/ of a checkout of this project, the reports also refresh the "
+            "headline block of its README.md.",
         )
         p.add_argument(
             "--quick",
@@ -174,7 +214,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="asv's results directory (default: .asv/results)",
     )
     p.add_argument(
-        "--commits", type=int, default=5, help="how many recent commits performance.md shows (default 5)"
+        "--commits",
+        type=positive_int,
+        default=5,
+        help="how many recent commits performance.md shows (default 5)",
     )
     p.add_argument(
         "--readme", metavar="FILE", help="also refresh the headline block of this README from the data"

@@ -62,12 +62,13 @@ def add_force_options(p: argparse.ArgumentParser) -> None:
 
 def _settings(args: argparse.Namespace) -> Any:
     from replication.casestudy.sph import SPHSettings
+    from replication.casestudy.units import to_metres
 
     changes: dict[str, Any] = {}
     if args.particle_radius is not None:
-        changes["particle_radius"] = args.particle_radius * 1e-3
+        changes["particle_radius"] = float(to_metres(args.particle_radius))
     if args.duration is not None:
-        changes["duration"] = args.duration * 1e-3
+        changes["duration"] = args.duration / 1000.0  # ms -> s
     if args.sph_method is not None:
         changes["method"] = args.sph_method
     if args.sound_speed is not None:
@@ -185,13 +186,16 @@ def sph_report(
 
 def _cmd_sph(args: argparse.Namespace) -> int:
     from replication.casestudy.sph import require_engine
-    from replication.cli.reports import output_dir
+    from replication.cli.outputs import finish_reports, planned_output_dir
 
     require_engine()
-    out = output_dir(args)
+    out = planned_output_dir(args)
     start = time.perf_counter()
     path = run_sph_report(out, args.quick, args.invocation)
+    written = finish_reports(out)
     print(f"wrote {path} ({time.perf_counter() - start:.1f} s; data in {out / 'data'})")
+    for readme in written[1:]:
+        print(f"refreshed the headline block of {readme} from {out}/data (the reports beside it)")
     return 0
 
 
@@ -200,7 +204,6 @@ def run_sph_report(out: Path, quick: bool, command: str) -> Path:
     from tqdm import tqdm
 
     from replication.experiments.sph import SPHStudyConfig, run_sph_study
-    from replication.report.index import render_index
     from replication.report.sph import render_sph, save_sph_data
 
     config = SPHStudyConfig.quick() if quick else SPHStudyConfig()
@@ -212,14 +215,12 @@ def run_sph_report(out: Path, quick: bool, command: str) -> Path:
 
         results = run_sph_study(config, command=command, quick=quick, on_run=tick)
     save_sph_data(results, out)
-    path = render_sph(out)
-    render_index(out)
-    return path
+    return render_sph(out)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``sph`` subcommand (the SPH study and its report)."""
-    from replication.cli.reports import DEFAULT_DIR, QUICK_DIR
+    from replication.cli.outputs import DEFAULT_DIR, QUICK_DIR
 
     p = sub.add_parser(
         "sph",

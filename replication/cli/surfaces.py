@@ -1,4 +1,4 @@
-"""``replication adt``, ``replication nurbs`` and ``replication compare``."""
+"""``replication adt``, ``replication nurbs`` and ``replication compare`` (its handler: :mod:`.compare`)."""
 
 from __future__ import annotations
 
@@ -9,13 +9,21 @@ from typing import Any
 from replication.cli.common import (
     add_cloud_source,
     add_frame_options,
-    check_output,
     emit_json,
+    finite_positive,
     frame_kwargs,
     load_or_generate,
     pair,
+    probability,
     relay_warnings,
+    warm_up,
 )
+from replication.cli.compare import EPILOG_COMPARE, cmd_compare
+from replication.cli.files import check_outputs, save_generated_cloud, suffix_warning, write_all_or_none
+from replication.cli.resources import check_tessellation
+
+SURFACE_KINDS = {"vtk": "legacy VTK, ASCII", "vtp": "VTK XML, binary"}
+NURBS_KINDS = {"smesh": "compact smesh, ASCII", "json": "geomdl JSON"}
 
 EPILOG_ADT = """\
 examples:
@@ -49,21 +57,6 @@ complete ASCII format geomdl reads back (geomdl.exchange.import_smesh); .json is
 JSON exchange format.
 """
 
-EPILOG_COMPARE = """\
-examples:
-  replication compare cloud.csv
-  replication compare --random 200 --seed 1 --step 1 --json
-
-Two pairings of depths at the same position: (a) nurbs-samples, at points evaluated on the
-NURBS surface (ADT depth by barycentric interpolation; samples outside the ADT footprint are
-excluded), and (b) cloud-points, at the cloud's own positions (NURBS depth by Newton
-inversion to 1e-9). For each: the paper's paired t-test and Wilcoxon signed-rank test with
-its verdict ("similar" when the test fails to reject), and what that logic lacks: the mean
-difference with its 95 % confidence interval, Cohen's d_z, RMS and maximum deviation as a
-percentage of the depth range, a normality check, and a TOST equivalence test with a
-margin of 5 % of the depth range.
-"""
-
 
 def _cmd_adt(args: argparse.Namespace) -> int:
     from replication.errors import InputError
@@ -71,10 +64,12 @@ def _cmd_adt(args: argparse.Namespace) -> int:
     from replication.surfaces import AXES, adt, closed_adt, parse_split
 
     fmt = surface_format(args.output, args.format) if args.output else args.format
-    check_output(args.output)
-    start = time.perf_counter()
+    check_outputs(args)
+    suffix_warning(args.output, args.format, SURFACE_KINDS)
     with relay_warnings():
         cloud, source, meta = load_or_generate(args)
+        startup_s = warm_up("adt", args)
+        start = time.perf_counter()
         if args.split:
             if args.depth != "min":
                 raise InputError(
@@ -107,8 +102,11 @@ def _cmd_adt(args: argparse.Namespace) -> int:
                 "spreads": dict(zip(AXES, surface.spreads)),
                 "points_merged": surface.n_merged,
             }
-    build_s = time.perf_counter() - start
-    written = write_surface(mesh, args.output, fmt) if args.output else None
+        build_s = time.perf_counter() - start
+    written, _ = write_all_or_none(
+        (args.output, lambda: write_surface(mesh, args.output, fmt)),
+        (args.save_cloud, lambda: save_generated_cloud(cloud, args, meta)),
+    )
     report: dict[str, Any] = {
         "input": source,
         "points": int(cloud.shape[0]),
@@ -121,6 +119,7 @@ def _cmd_adt(args: argparse.Namespace) -> int:
         "format": fmt if args.output else None,
         "bytes": written,
         "build_seconds": build_s,
+        "startup_seconds": startup_s,
         **meta,
     }
     if args.json:
@@ -151,7 +150,7 @@ def _print_merges_and_outputs(report: dict[str, Any], args: argparse.Namespace) 
         merged = report["points_merged"]
         print(f"merged {merged} point(s) sharing a projected position (policy {args.duplicates})")
     if args.output:
-        kind = {"vtk": "legacy VTK, ASCII", "vtp": "VTK XML, binary"}[report["format"]]
+        kind = SURFACE_KINDS[report["format"]]
         print(f"wrote {args.output} ({report['bytes']:,} bytes, {kind})")
     else:
         print("no output file written (use -o OUT)")
@@ -164,10 +163,13 @@ def _cmd_nurbs(args: argparse.Namespace) -> int:
     from replication.surfaces.nurbs import fit_nurbs
 
     fmt = nurbs_format(args.output, args.format) if args.output else args.format
-    check_output(args.output)
-    start = time.perf_counter()
+    check_outputs(args)
+    suffix_warning(args.output, args.format, NURBS_KINDS)
+    check_tessellation(args.tessellation, args.evaluator)
     with relay_warnings():
         cloud, source, meta = load_or_generate(args)
+        startup_s = warm_up("nurbs", args)
+        start = time.perf_counter()
         nurbs = fit_nurbs(
             cloud,
             degree=args.degree,
@@ -176,8 +178,11 @@ def _cmd_nurbs(args: argparse.Namespace) -> int:
             evaluator=args.evaluator,
             **frame_kwargs(args),
         )
-    build_s = time.perf_counter() - start
-    written = write_nurbs(nurbs.patch, args.output, fmt) if args.output else None
+        build_s = time.perf_counter() - start
+    written, _ = write_all_or_none(
+        (args.output, lambda: write_nurbs(nurbs.patch, args.output, fmt)),
+        (args.save_cloud, lambda: save_generated_cloud(cloud, args, meta)),
+    )
     m_u, m_v = nurbs.patch.net_shape
     report: dict[str, Any] = {
         "input": source,
@@ -196,6 +201,7 @@ def _cmd_nurbs(args: argparse.Namespace) -> int:
         "format": fmt if args.output else None,
         "bytes": written,
         "build_seconds": build_s,
+        "startup_seconds": startup_s,
         **meta,
     }
     if args.json:
@@ -211,84 +217,11 @@ def _cmd_nurbs(args: argparse.Namespace) -> int:
         "and took the nearest point's depth"
     )
     if args.output:
-        kind = {"smesh": "compact smesh, ASCII", "json": "geomdl JSON"}[fmt]
-        print(f"wrote {args.output} ({written:,} bytes, {kind})")
+        print(f"wrote {args.output} ({written:,} bytes, {NURBS_KINDS[fmt]})")
     else:
         print("no output file written (use -o OUT)")
-    return 0
-
-
-def _format_stats(name: str, pairs: Any, st: Any) -> list[str]:
-    head = f"pairing {name}: {pairs.n} pairs of {pairs.n_candidates}"
-    excluded = pairs.n_outside_adt + pairs.n_outside_nurbs
-    if excluded:
-        where = "ADT" if pairs.n_outside_adt else "NURBS"
-        head += f" ({excluded} outside the {where} footprint, excluded)"
-    if st is None:
-        return [head, "  too few pairs for the tests (need 3)"]
-    lo, hi = st.ci95
-    return [
-        head,
-        f"  paired t-test      t = {st.t_test.statistic:.4g}, p = {st.t_test.p_value:.4g}"
-        f"  -> paper's verdict: {'similar' if st.t_test.similar else 'different'}",
-        f"  Wilcoxon test      W = {st.wilcoxon.statistic:.4g}, p = {st.wilcoxon.p_value:.4g}"
-        f"  -> paper's verdict: {'similar' if st.wilcoxon.similar else 'different'}",
-        f"  mean difference    {st.mean_difference:.4g} (95% CI {lo:.4g} to {hi:.4g}), "
-        f"Cohen's d_z {st.cohens_dz:.3g}",
-        f"  deviation          RMS {st.rms:.4g} ({st.rms_percent:.1f}% of depth range), "
-        f"max {st.max_abs:.4g} ({st.max_abs_percent:.1f}%)",
-        f"  normality          {st.normality_test} p = {st.normality_p:.3g} -> use the {st.recommended_test}",
-        f"  equivalence (TOST) margin +-{st.margin:.4g} ({100 * st.margin_fraction:g}% of range): "
-        f"p = {st.tost_p:.3g} -> {'equivalent' if st.equivalent else 'NOT shown equivalent'}",
-    ]
-
-
-def _cmd_compare(args: argparse.Namespace) -> int:
-    from replication.compare import compare
-
-    with relay_warnings():
-        cloud, source, meta = load_or_generate(args)
-        result = compare(
-            cloud,
-            degree=args.degree,
-            net=args.net,
-            sample_shape=args.samples,
-            margin_fraction=args.margin,
-            alpha=args.alpha,
-            **frame_kwargs(args),
-        )
-    m_u, m_v = result.nurbs.patch.net_shape
-    pairings: dict[str, Any] = {}
-    for name, p in result.pairings.items():
-        st = result.statistics[name]
-        pairings[name] = {
-            "pairs": p.n,
-            "candidates": p.n_candidates,
-            "outside_adt": p.n_outside_adt,
-            "outside_nurbs": p.n_outside_nurbs,
-            "statistics": None if st is None else st.as_dict(),
-        }
-    report: dict[str, Any] = {
-        "input": source,
-        "points": int(cloud.shape[0]),
-        "depth_axis": result.adt.depth_axis_name,
-        "depth_range": result.depth_range,
-        "adt": {"vertices": result.adt.n_vertices, "triangles": result.adt.n_triangles},
-        "nurbs": {"degree": args.degree, "net": [m_u, m_v], "net_rule": result.nurbs.net.rule},
-        "alpha": args.alpha,
-        "margin_fraction": args.margin,
-        "pairings": pairings,
-        **meta,
-    }
-    if args.json:
-        emit_json(report)
-        return 0
-    print(
-        f"ADT vs NURBS for {source}: depth axis {report['depth_axis']}, "
-        f"depth range {result.depth_range:.4g}; NURBS degree {args.degree}, {m_u} x {m_v} net"
-    )
-    for name in result.pairings:
-        print("\n".join(_format_stats(name, result.pairings[name], result.statistics[name])))
+    if "cloud_file" in meta:
+        print(f"wrote the cloud to {meta['cloud_file']} ({meta['cloud_bytes']:,} bytes)")
     return 0
 
 
@@ -330,7 +263,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     for name, func, helptext, epilog in (
         ("nurbs", _cmd_nurbs, "fit the paper's NURBS baseline to a point cloud (section 3.1)", EPILOG_NURBS),
-        ("compare", _cmd_compare, "paired statistics of ADT vs NURBS depths (section 4)", EPILOG_COMPARE),
+        ("compare", cmd_compare, "paired statistics of ADT vs NURBS depths (section 4)", EPILOG_COMPARE),
     ):
         p = sub.add_parser(
             name,
@@ -365,11 +298,13 @@ def register(sub: argparse._SubParsersAction) -> None:
             )
             p.add_argument(
                 "--margin",
-                type=float,
+                type=finite_positive,
                 default=0.05,
                 help="equivalence margin as a fraction of the depth range (default 0.05)",
             )
-            p.add_argument("--alpha", type=float, default=0.05, help="significance level (default 0.05)")
+            p.add_argument(
+                "--alpha", type=probability, default=0.05, help="significance level (default 0.05)"
+            )
         p.add_argument("--degree", type=int, default=2, help="NURBS degree in both directions (default 2)")
         p.add_argument("--net", type=pair, metavar="MUxMV", help="impose the control net, e.g. 9x5")
         add_frame_options(p)

@@ -26,9 +26,9 @@ cached simulations into misses; --rebuild-surfaces builds them afresh.
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from replication.cli.reports import output_dir
+    from replication.cli.outputs import finish_reports, planned_output_dir
 
-    out = output_dir(args)
+    out = planned_output_dir(args)
     start = time.perf_counter()
     results, path = run_validation_report(args, out)
     table = results.surfaces
@@ -40,14 +40,17 @@ def _cmd_validate(args: argparse.Namespace) -> int:
         f"[{overall['spearman_low']:.3f}, {overall['spearman_high']:.3f}], Kendall {overall['kendall']:.3f} "
         f"over {int(overall['n'])} simulated ({failed} failed, {missing} not in the cache)"
     )
+    written = finish_reports(out)
     print(f"wrote {path} ({time.perf_counter() - start:.1f} s; data in {out / 'data'})")
+    for readme in written[1:]:
+        print(f"refreshed the headline block of {readme} from {out}/data (the reports beside it)")
     return 0
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``validate-jet`` subcommand."""
     from replication.casestudy.evaluate import EXECUTORS
-    from replication.cli.reports import DEFAULT_DIR, QUICK_DIR
+    from replication.cli.outputs import DEFAULT_DIR, QUICK_DIR
     from replication.cli.sph import positive_float
 
     p = sub.add_parser(

@@ -25,7 +25,10 @@ def _config(args: argparse.Namespace) -> Any:
 
 
 def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Path]:
-    """Run the study as the arguments say (progress on stderr), save its data, render the report."""
+    """Run the study as the arguments say (progress on stderr), save its data, render the report.
+
+    The index (and a checkout's README headline) is the caller's to refresh.
+    """
     from tqdm import tqdm
 
     from replication.casestudy.evaluate import executor
@@ -33,7 +36,6 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
     from replication.casestudy.sph_batch import DEFAULT_CACHE_DIR
     from replication.errors import SimulationError
     from replication.experiments.jet_validation import run_validation
-    from replication.report.index import render_index
     from replication.report.jet_validation import render_jet_validation, save_jet_validation_data
 
     require_engine()
@@ -58,9 +60,10 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
     ga_pool = functools.partial(executor, "serial")
     try:
         kind = "dask" if args.scheduler else args.executor
-        with executor(kind, workers=args.workers, scheduler=args.scheduler) as pool:
+        serial = kind == "serial"  # one simulation at a time, driven from this process
+        with executor(kind, workers=None if serial else args.workers, scheduler=args.scheduler) as pool:
             results = run_validation(
-                config, cache_dir=cache, executor=pool, max_parallel=args.workers,
+                config, cache_dir=cache, executor=pool, max_parallel=1 if serial else args.workers,
                 ga_run_dir=args.ga_run_dir, ga_pool_factory=ga_pool, retry_failed=args.retry_failed,
                 simulate_missing=not args.from_cache, rebuild_surfaces=args.rebuild_surfaces,
                 on_result=done, on_stage=stage,
@@ -79,9 +82,7 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
     if missing and args.from_cache:
         raise SimulationError(f"{missing} simulation(s) missing from the cache: run without --from-cache")
     save_jet_validation_data(results, out)
-    path = render_jet_validation(out)
-    render_index(out)
-    return results, path
+    return results, render_jet_validation(out)
 
 
 def reproduce_stage(out: Path, quick: bool, command: str) -> tuple[Path | None, str]:

@@ -35,10 +35,44 @@ from replication.io.vtk import legacy_vtk_text
 from replication.provenance import provenance
 from replication.surfaces import adt
 
-__all__ = ["PAPER_CASESTUDY", "CaseStudyResults", "quick_ga_config", "run_casestudy"]
+__all__ = [
+    "PAPER_CASESTUDY",
+    "CaseStudyResults",
+    "differences_from_paper",
+    "quick_ga_config",
+    "run_casestudy",
+]
 
 #: The paper's SPH force of each reference shape, verbatim (section 6).
 PAPER_SHAPES = {"flat plate": PAPER_CASESTUDY["flat_N"], "pelton bucket": PAPER_CASESTUDY["bucket_N"]}
+
+
+def _flatten(config: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    flat: dict[str, Any] = {}
+    for key, value in config.items():
+        if isinstance(value, dict):
+            flat.update(_flatten(value, f"{prefix}{key} "))
+        else:
+            flat[f"{prefix}{key}"] = value
+    return flat
+
+
+def differences_from_paper(config: dict[str, Any]) -> list[str]:
+    """The settings of a recorded GA configuration that differ from the paper's.
+
+    Each is described as ``"population 24 (paper: 48)"``; nested settings are prefixed with
+    their group (``"jet diameter ..."``).
+
+    Notes
+    -----
+    Paper section 6: the paper's settings are :class:`~replication.casestudy.ga.GAConfig`'s defaults.
+    """
+    ours, paper = _flatten(config), _flatten(GAConfig().as_dict())
+    return [
+        f"{key} {ours.get(key, 'unrecorded')} (paper: {paper.get(key, 'none')})"
+        for key in [*paper, *(k for k in ours if k not in paper)]
+        if ours.get(key) != paper.get(key)
+    ]
 
 
 def quick_ga_config() -> GAConfig:

@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import io
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from replication.errors import CloudFileError, InputError, shown
+from replication.errors import CloudFileError, CloudFileWarning, InputError, shown
 from replication.io.atomic import atomic_path, atomic_write_text
 from replication.io.vtk import format_number
 from replication.surfaces.cloud import as_cloud
@@ -50,6 +51,37 @@ def _diagnose(path: Path, lines: list[tuple[int, str]], comma: bool) -> CloudFil
     return CloudFileError(f"{path}: could not parse the file as three numeric columns")
 
 
+def _column_number_header(path: Path, numbered: list[tuple[int, str]]) -> list[tuple[int, str]]:
+    """Decide about a first line ``0,1,2``: pandas' header of column numbers, or the point (0, 1, 2)?
+
+    pandas writes the column labels 0, 1, 2 as a header when a frame has no column names.
+    When any other line holds a number that is not a whole number, a point (0, 1, 2) would
+    be the only integer point of the cloud: the line is taken for that header and skipped.
+    When every value is a whole number (a lattice cloud) the line may be a point and is
+    kept. Either way a warning says what was done.
+    """
+    if len(numbered) > 1 and any(
+        not float(t).is_integer()
+        for _, line in numbered[1:]
+        for t in _split(line, "," in line)
+        if _is_number(t)
+    ):
+        warnings.warn(
+            f"{path}: line {numbered[0][0]} ({numbered[0][1].strip()!r}) looks like pandas' header of column "
+            "numbers and was skipped (every other point has non-integer coordinates)",
+            CloudFileWarning,
+            stacklevel=4,
+        )
+        return numbered[1:]
+    warnings.warn(
+        f"{path}: line {numbered[0][0]} ({numbered[0][1].strip()!r}) was read as the point (0, 1, 2); if "
+        "it is pandas' header of column numbers, delete the line",
+        CloudFileWarning,
+        stacklevel=4,
+    )
+    return numbered
+
+
 def _load_text(path: Path) -> np.ndarray:
     try:
         text = path.read_text(encoding="utf-8-sig")  # a byte-order mark (Excel's UTF-8 CSV) is not data
@@ -67,6 +99,8 @@ def _load_text(path: Path) -> np.ndarray:
         numbered = numbered[1:]  # a header line: no numeric token at all (a malformed data line has some)
         if not numbered:
             raise CloudFileError(f"{path}: the file has a header but no data lines")
+    elif first_tokens == ["0", "1", "2"]:
+        numbered = _column_number_header(path, numbered)
     comma = "," in numbered[0][1]
     body = "\n".join(line for _, line in numbered)
     try:
@@ -80,6 +114,31 @@ def _load_text(path: Path) -> np.ndarray:
         lines = shown(numbered[i][0] for i in bad)
         raise CloudFileError(f"{path}: NaN or infinite coordinates on {bad.size} line(s): {lines}")
     return data
+
+
+_NPY_MAGIC = b"\x93NUMPY"
+
+
+def _load_npy(path: Path) -> np.ndarray:
+    """A numeric ``.npy`` array; never unpickled, and numpy's advice to unpickle is not relayed."""
+    try:
+        with open(path, "rb") as handle:
+            magic = handle.read(len(_NPY_MAGIC))
+    except OSError as exc:
+        raise CloudFileError(f"{path}: cannot read the file ({exc.strerror or exc})") from exc
+    if magic != _NPY_MAGIC:
+        raise CloudFileError(f"{path}: not a .npy array file (it does not start with numpy's .npy signature)")
+    try:
+        return np.load(path, allow_pickle=False)
+    except ValueError as exc:
+        if "pickle" in str(exc).lower():  # an object array: loading it could run code
+            raise CloudFileError(
+                f"{path}: holds Python objects, not numbers; such files are never loaded (loading them "
+                "could run code)"
+            ) from exc
+        raise CloudFileError(f"{path}: not a readable .npy array ({exc})") from exc
+    except (OSError, EOFError) as exc:
+        raise CloudFileError(f"{path}: not a readable .npy array (truncated or damaged: {exc})") from exc
 
 
 def load_cloud(path: str | os.PathLike[str]) -> np.ndarray:
@@ -97,7 +156,13 @@ def load_cloud(path: str | os.PathLike[str]) -> np.ndarray:
     ------
     CloudFileError
         Missing, empty or unreadable file; wrong number of columns; non-numeric text;
-        NaN or infinite coordinates (the lines are named).
+        NaN or infinite coordinates (the lines are named), a ``.npy`` file that is not a
+        numeric array (object arrays are never unpickled).
+
+    Warns
+    -----
+    CloudFileWarning
+        A first line ``0,1,2``, which pandas writes as a header of column numbers.
     """
     path = Path(path)
     if not path.exists():
@@ -108,10 +173,7 @@ def load_cloud(path: str | os.PathLike[str]) -> np.ndarray:
     if suffix in _TEXT_SUFFIXES:
         return _load_text(path)
     if suffix == ".npy":
-        try:
-            data = np.load(path, allow_pickle=False)
-        except (ValueError, OSError, EOFError) as exc:
-            raise CloudFileError(f"{path}: not a readable .npy array ({exc})") from exc
+        data = _load_npy(path)
         try:
             return as_cloud(data, name=str(path))
         except InputError as exc:

@@ -9,7 +9,9 @@ declared ``double`` so that the round trip through VTK is exact.
 
 from __future__ import annotations
 
+import contextlib
 import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Literal, Protocol
 
@@ -151,8 +153,38 @@ def write_surface(mesh: TriangleMesh, path: str | os.PathLike[str], fmt: str | N
     return write_vtp(mesh, path)
 
 
+@contextlib.contextmanager
+def _vtk_messages() -> Iterator[list[str]]:
+    """Silence VTK (its output window and its logger) and collect its error messages.
+
+    Without this a malformed file makes VTK print several coloured log lines (and
+    multi-line pipeline dumps) on stderr before the one-line error this package reports.
+    """
+    from vtkmodules.vtkCommonCore import vtkOutputWindow, vtkStringOutputWindow
+
+    previous = vtkOutputWindow.GetInstance()
+    window = vtkStringOutputWindow()
+    vtkOutputWindow.SetInstance(window)
+    messages: list[str] = []
+    try:
+        import pyvista as pv
+
+        quiet = pv.vtk_verbosity("off") if hasattr(pv, "vtk_verbosity") else contextlib.nullcontext()
+        with quiet:
+            yield messages
+    finally:
+        vtkOutputWindow.SetInstance(previous)
+        text = window.GetOutput()
+        for block in text.split("\n\n"):
+            lines = [line.strip() for line in block.strip().splitlines()]
+            if len(lines) >= 2 and lines[0].startswith("ERROR"):
+                messages.append(lines[1].split("): ", 1)[-1])
+
+
 def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
-    """Read a triangle surface (``.vtk`` or ``.vtp``) with pyvista; return (points, triangles).
+    """Read a triangle surface (``.vtk`` or ``.vtp``) with VTK; return (points, triangles).
+
+    VTK's own messages are not printed; the first of them is quoted in the error.
 
     Raises
     ------
@@ -160,17 +192,23 @@ def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
         Missing or unreadable file, or a mesh that is not made of triangles only.
     """
     import pyvista as pv
+    from vtkmodules.vtkIOLegacy import vtkPolyDataReader
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
 
     path = Path(path)
     if not path.is_file():
         raise CloudFileError(f"surface file not found: {path}")
-    surface_format(path)
-    try:
-        mesh = pv.read(path)
-    except Exception as exc:  # VTK readers raise assorted types
-        raise CloudFileError(f"{path}: not a readable VTK surface ({exc})") from exc
+    reader = vtkPolyDataReader() if surface_format(path) == "vtk" else vtkXMLPolyDataReader()
+    with _vtk_messages() as messages:
+        reader.SetFileName(str(path))
+        reader.Update()
+        output = reader.GetOutput()
+    why = f" (VTK: {messages[0]})" if messages else ""
+    if messages or output is None:
+        raise CloudFileError(f"{path}: not a readable VTK surface{why}")
+    mesh = pv.wrap(output)
     if not isinstance(mesh, pv.PolyData) or mesh.n_points == 0:
-        raise CloudFileError(f"{path}: no surface (points and triangles) in the file")
+        raise CloudFileError(f"{path}: no surface (points and triangles) in the file{why}")
     if mesh.n_cells == 0 or not mesh.is_all_triangles:
         raise CloudFileError(f"{path}: the surface must consist of triangles only")
     points = np.asarray(mesh.points, dtype=np.float64)

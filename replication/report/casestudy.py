@@ -18,9 +18,10 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Wedge
 
 from replication.errors import DuplicatePointsWarning
+from replication.experiments.casestudy import differences_from_paper
 from replication.io.atomic import atomic_write_text
 from replication.report.casestudy_validation import validation_section  # issue 11
-from replication.report.figures import save_figure
+from replication.report.figures import clear_figures, save_figure
 from replication.report.markdown import fmt, iqr, provenance_section, table
 from replication.report.render3d import render_views
 from replication.report.store import read_csv, read_json, write_csv, write_json
@@ -28,6 +29,17 @@ from replication.report.store import read_csv, read_json, write_csv, write_json
 __all__ = ["save_casestudy_data", "load_casestudy_data", "render_casestudy"]
 
 TABLES = ("history", "runs", "shapes", "evaluation", "claims")
+#: Columns the renderer reads from each table.
+COLUMNS: dict[str, tuple[str, ...]] = {
+    "history": ("run", "generation", "best", "best_so_far", "mean"),
+    "runs": ("run", "seed", "best_N", "best_generation", "evaluations", "cache_hits", "failures",
+             "wall_s", "seconds_per_evaluation"),
+    "shapes": ("shape", "axial_N", "axial_4x_N", "refinement_change_pct", "over_rho_q_v",
+               "full_jet_mirrored_N", "paper_sph_N", "rho_q_v_N"),
+    "evaluation": ("individual", "median", "q1", "q3", "vtk_bytes"),
+    "claims": ("claim", "paper", "ours", "verdict", "why"),
+    "best": ("run", "x_mm", "y_mm", "z_mm"),
+}  # fmt: skip
 
 
 def save_casestudy_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
@@ -50,7 +62,9 @@ def save_casestudy_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
 
 def load_casestudy_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     data = Path(out_dir) / "data"
-    loaded: dict[str, Any] = {name: read_csv(data / f"casestudy_{name}.csv") for name in (*TABLES, "best")}
+    loaded: dict[str, Any] = {
+        name: read_csv(data / f"casestudy_{name}.csv", COLUMNS[name]) for name in (*TABLES, "best")
+    }
     loaded["provenance"] = read_json(data / "casestudy_provenance.json")
     return loaded
 
@@ -138,6 +152,7 @@ def render_casestudy(out_dir: str | os.PathLike[str]) -> Path:
     prov = d["provenance"]
     config = prov["config"]
     jet = config["jet"]
+    clear_figures(figures, "casestudy_")  # e.g. casestudy_best_run2.png of an earlier 3-run report
     _fig8(d, figures / "casestudy_fig8")
     _fig9(d, figures / "casestudy_fig9", config)
     renders, renderer = _renders(d, figures, config["duplicates"])
@@ -176,10 +191,19 @@ def render_casestudy(out_dir: str | os.PathLike[str]) -> Path:
         if (out / "data" / "sph_provenance.json").is_file()
         else ""
     )
+    differ = differences_from_paper(config)
+    kind = "Quick run (a reduced GA for smoke testing)" if prov.get("quick") else "Not the paper's settings"
     quick = (
-        "\n> **Quick run** (a reduced GA for smoke testing): not the paper's settings.\n"
-        if prov.get("quick")
+        f"\n> **{kind}**: {'; '.join(differ)}. The paper's numbers below are for its own settings.\n"
+        if differ
         else ""
+    )
+    settings = "the paper's" if not differ else "the paper's except as stated at the top"
+    this_run = (
+        "replication casestudy               # the paper's settings (this report)"
+        if not differ
+        else f"replication casestudy               # the paper's settings\n{prov.get('command', '?')}"
+        "    # this report"
     )
     text = f"""# Figs. 8 and 9: the water-jet case study
 
@@ -197,7 +221,7 @@ validated against exact results (flat and inclined plates, a jet into a spherica
 conservation, half-jet symmetry; see the tests). The half jet (y >= 0) on the half domain is
 modelled, as in the paper. The objective is the force along the jet axis.
 
-Settings (the paper's, unless stated): population {config["population"]}, {config["generations"]}
+Settings ({settings}): population {config["population"]}, {config["generations"]}
 generations (the initial population included), {config["runs"]} runs, {config["elites"]} elites,
 random selection, two-point crossover, mutation probability {100 * config["mutation_rate"]:g} % per
 gene (a gene is one lattice coordinate of one of the {config["points"]} points; a mutation draws
@@ -294,7 +318,7 @@ and the size of the individual's surface as compact legacy VTK:
 ## Reproduce
 
 ```bash
-replication casestudy               # the paper's settings (this report)
+{this_run}
 replication casestudy --quick       # a reduced GA for smoke testing
 replication casestudy --run-dir DIR --resume    # continue an interrupted run
 replication report                  # re-render from data/ only

@@ -14,7 +14,7 @@ from matplotlib.figure import Figure
 from replication.experiments.claims import PAPER
 from replication.io.atomic import atomic_path
 
-__all__ = ["save_figure", "fig6"]
+__all__ = ["clear_figures", "save_figure", "fig6"]
 
 
 def save_figure(
@@ -31,6 +31,23 @@ def save_figure(
             fig.savefig(tmp, format=ext, dpi=150, metadata=metadata, bbox_inches="tight")
         paths.append(path)
     return paths
+
+
+def clear_figures(figures: str | os.PathLike[str], prefix: str) -> list[Path]:
+    """Remove a report's own generated figures (``prefix*.png``/``.svg``) before it renders anew.
+
+    A report's set of figures depends on its data (one render per GA run, one per n), so
+    a re-render must not leave figures of an earlier run next to its own. Only files named
+    with the report's prefix are removed. Returns the removed paths.
+    """
+    directory = Path(figures)
+    removed = []
+    if directory.is_dir():
+        for path in sorted(directory.glob(f"{prefix}*")):
+            if path.is_file() and path.suffix in (".png", ".svg"):
+                path.unlink()
+                removed.append(path)
+    return removed
 
 
 def _series(mc: pd.DataFrame, quantity: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from replication.errors import DegenerateInputError, InputError
-from replication.surfaces.cloud import as_cloud
+from replication.surfaces.cloud import as_cloud, underflow
 from replication.surfaces.delaunay import Backend, delaunay_2d
 from replication.surfaces.duplicates import DuplicatePolicy, merge_duplicates
 
@@ -270,6 +270,9 @@ def adt(
     try:
         triangles, used = delaunay_2d(vertices[:, [u_axis, v_axis]], backend=backend)
     except DegenerateInputError as exc:
+        why = underflow(vertices[:, [u_axis, v_axis]], (AXES[u_axis], AXES[v_axis]))  # not collinear: tiny
+        if why is not None:
+            raise DegenerateInputError(why) from exc
         raise DegenerateInputError(
             f"{exc} (projection plane ({AXES[u_axis]}, {AXES[v_axis]}), depth axis "
             f"{AXES[axis]}, rule {depth!r}; another --depth rule may help)"

@@ -10,7 +10,16 @@ from numpy.typing import ArrayLike
 
 from replication.errors import InputError, shown
 
-__all__ = ["Box", "CASE_STUDY_BOX", "as_cloud", "lattice_values", "make_rng", "random_cloud", "RNGLike"]
+__all__ = [
+    "Box",
+    "CASE_STUDY_BOX",
+    "as_cloud",
+    "lattice_values",
+    "make_rng",
+    "random_cloud",
+    "underflow",
+    "RNGLike",
+]
 
 RNGLike = int | np.random.Generator | None
 
@@ -141,3 +150,24 @@ def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
     if bad.size:
         raise InputError(f"{name} has NaN or infinite coordinates in {bad.size} row(s): {shown(bad)}")
     return arr
+
+
+def underflow(uv: np.ndarray, names: tuple[str, str] = ("u", "v")) -> str | None:
+    """Why the projected points cannot be triangulated in float64 because they are too small.
+
+    A triangle's orientation is a difference of products of coordinate differences, of the
+    order of the two extents' product. Below float64's smallest normal number (about
+    2.2e-308) those products underflow to subnormal numbers or zero and every triangle looks
+    flat, so such a cloud would be reported as collinear. Returns a message saying so, or
+    None when the extents are large enough.
+    """
+    uv = np.asarray(uv, dtype=np.float64)
+    extent = np.ptp(uv, axis=0) if uv.size else np.zeros(2)
+    tiny = np.finfo(np.float64).tiny
+    if extent[0] * extent[1] >= tiny:
+        return None
+    return (
+        f"the coordinates underflow: the projected points span only {extent[0]:.3g} x {extent[1]:.3g} in "
+        f"({names[0]}, {names[1]}), so triangle areas fall below float64's smallest normal number "
+        f"({tiny:.3g}) and no triangle can be told from a line; rescale the cloud (e.g. to millimetres)"
+    )

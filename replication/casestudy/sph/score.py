@@ -24,13 +24,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from replication.casestudy.jet import JetConfig
-from replication.casestudy.mesh import MM, check_domain, check_height_field, weld
+from replication.casestudy.mesh import check_domain, check_height_field, weld
 from replication.casestudy.sph.analysis import read_steps, summarize_force
 from replication.casestudy.sph.geometry import mirror_about_y
 from replication.casestudy.sph.process import run_child
 from replication.casestudy.sph.result import FORMAT_VERSION, SPHForce, write_result, write_series
 from replication.casestudy.sph.scene import write_scene
 from replication.casestudy.sph.settings import SPHSettings
+from replication.casestudy.units import to_metres
 from replication.errors import InputError, SolverUnavailableError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -105,7 +106,7 @@ def _validated(points: ArrayLike, triangles: ArrayLike, config: JetConfig) -> tu
     """Metres and counter-clockwise triangles of a height field, as the thin-sheet model checks them."""
     from replication.surfaces import as_cloud
 
-    pts = as_cloud(points, name="surface points") * MM
+    pts = to_metres(as_cloud(points, name="surface points"))
     try:
         tri = np.asarray(triangles)
     except (TypeError, ValueError) as exc:

@@ -1,0 +1,147 @@
+"""Ctrl-C during a GA run: stop between evaluations, never inside one.
+
+Python delivers SIGINT by raising :class:`KeyboardInterrupt` at whatever bytecode runs next.
+Inside a compiled (numba) kernel that turns into a ``SystemError`` ("returned a result with
+an exception set"), which an evaluator that treats exceptions as failed evaluations would
+record as a failure, and the run would go on. While an :class:`InterruptGuard` is active,
+the first SIGINT only *requests* a stop; the GA checks the request between evaluations and
+raises :class:`KeyboardInterrupt` there, so an evaluation is either complete or not done, and
+the last checkpoint (a complete generation) stays the run's state. A second SIGINT raises at
+once, for a user who does not want to wait for the current evaluation.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing.context
+import signal
+import threading
+from collections.abc import Iterator
+from types import FrameType
+
+__all__ = [
+    "InterruptGuard",
+    "caused_by_interrupt",
+    "ignore_interrupts",
+    "quiet_spawn_context",
+    "sigint_blocked",
+]
+
+
+class InterruptGuard:
+    """Context manager turning SIGINT into a stop request (see the module notes).
+
+    The handler is installed only in the main thread and only over Python's default
+    handler, so a guard inside a program with its own SIGINT handling changes nothing;
+    :meth:`requested` is then always False and Ctrl-C behaves as before.
+    """
+
+    def __init__(self) -> None:
+        self._requested = False
+        self._previous: object = None
+        self._installed = False
+
+    def __enter__(self) -> InterruptGuard:
+        if threading.current_thread() is threading.main_thread():
+            current = signal.getsignal(signal.SIGINT)
+            if current is signal.default_int_handler:
+                self._previous = current
+                signal.signal(signal.SIGINT, self._handle)
+                self._installed = True
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._installed:
+            signal.signal(signal.SIGINT, self._previous)  # type: ignore[arg-type]
+            self._installed = False
+
+    def _handle(self, signum: int, frame: FrameType | None) -> None:
+        if self._requested:
+            raise KeyboardInterrupt
+        self._requested = True
+
+    def requested(self) -> bool:
+        """Whether Ctrl-C was pressed while the guard was active."""
+        return self._requested
+
+    def check(self) -> None:
+        """Raise :class:`KeyboardInterrupt` if a stop was requested."""
+        if self._requested:
+            raise KeyboardInterrupt
+
+
+def caused_by_interrupt(exc: BaseException) -> bool:
+    """Whether ``exc`` is, or was raised while handling, a :class:`KeyboardInterrupt`."""
+    seen: set[int] = set()
+    current: BaseException | None = exc
+    while current is not None and id(current) not in seen:
+        if isinstance(current, KeyboardInterrupt):
+            return True
+        seen.add(id(current))
+        current = current.__cause__ or current.__context__
+    return False
+
+
+@contextlib.contextmanager
+def sigint_blocked() -> Iterator[None]:
+    """Block SIGINT in the calling thread; processes and threads started inside inherit the block.
+
+    Ctrl-C in a terminal signals every process of the foreground group, worker processes
+    included. Workers started with SIGINT blocked never see it: the parent alone decides
+    when to stop (between evaluations), and no worker prints a traceback or dies in the
+    middle of an evaluation. A SIGINT that reaches the parent meanwhile stays pending and is
+    delivered when the block ends. Without ``pthread_sigmask`` (Windows) nothing is blocked.
+    """
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - POSIX only
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+class _QuietSpawnProcess(multiprocessing.context.SpawnProcess):
+    def start(self) -> None:
+        with sigint_blocked():
+            super().start()
+
+
+class _QuietSpawnContext(multiprocessing.context.SpawnContext):
+    Process = _QuietSpawnProcess
+
+
+def quiet_spawn_context() -> multiprocessing.context.SpawnContext:
+    """A "spawn" multiprocessing context whose processes start with SIGINT blocked."""
+    return _QuietSpawnContext()
+
+
+@contextlib.contextmanager
+def sigint_ignored_by_children() -> Iterator[None]:
+    """Ignore SIGINT process-wide while worker processes are started in other threads.
+
+    A local dask cluster starts its worker processes from its own threads, which a
+    thread-level block (:func:`sigint_blocked`) does not reach; an ignored SIGINT, however,
+    stays ignored across ``exec``, and Python keeps it so in the child. The price: a Ctrl-C
+    in the second or so the cluster takes to start is ignored (press it again). Only in the
+    main thread (elsewhere nothing changes).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def ignore_interrupts() -> None:
+    """Process-pool initializer: workers ignore SIGINT; the parent decides when to stop.
+
+    The second line of defence after :func:`quiet_spawn_context` (and the only one where
+    signals cannot be blocked): a worker killed in the middle of an evaluation would return
+    a spurious failure or break the pool; the parent stops the run between evaluations.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)

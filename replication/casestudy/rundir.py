@@ -1,0 +1,135 @@
+"""GA run directories: the recorded configuration (``config.json``) and the checkpoints held.
+
+``config.json`` records the :class:`~replication.casestudy.ga.GAConfig` of a run; it is
+validated when read (malformed JSON, unknown or missing settings, values GAConfig refuses)
+and a run directory with checkpoints but no ``config.json`` is refused, each with a
+:class:`~replication.errors.CheckpointError` naming the file and the fault.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+from replication.casestudy.ga import GAConfig
+from replication.casestudy.jet import JetConfig
+from replication.errors import CheckpointError, InputError
+from replication.io.atomic import atomic_write_text
+
+__all__ = ["CONFIG_NAME", "checkpoints", "config_from_dict", "read_config", "read_json", "write_config"]
+
+CONFIG_NAME = "config.json"
+
+
+def checkpoints(run_dir: str | os.PathLike[str]) -> list[Path]:
+    """The checkpoint files ``run-<k>.json`` in a run directory, sorted by name."""
+    run_dir = Path(run_dir)
+    return sorted(run_dir.glob("run-*.json")) if run_dir.is_dir() else []
+
+
+def read_json(path: Path, what: str) -> Any:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise CheckpointError(f"{path}: not a {what} (not UTF-8 text)") from exc
+    except OSError as exc:
+        raise CheckpointError(f"{path}: cannot read the {what}: {exc.strerror or exc}") from exc
+    try:
+        return json.loads(text)
+    except ValueError as exc:
+        raise CheckpointError(f"{path}: not a {what} (malformed JSON: {exc})") from exc
+
+
+def _jsonable(config: GAConfig) -> dict[str, Any]:
+    return json.loads(json.dumps(config.as_dict()))
+
+
+def config_from_dict(data: Any) -> GAConfig:
+    """The :class:`GAConfig` recorded by :meth:`GAConfig.as_dict` (validated).
+
+    Raises
+    ------
+    InputError
+        Not a mapping, unknown or missing settings, or values GAConfig refuses.
+    """
+    if not isinstance(data, dict):
+        raise InputError(f"expected a JSON object of GA settings, got {type(data).__name__}")
+    names = {f.name for f in dataclasses.fields(GAConfig)}
+    unknown, missing = sorted(set(data) - names), sorted(names - set(data))
+    if unknown or missing:
+        parts = [f"unknown setting(s) {', '.join(unknown)}" if unknown else "",
+                 f"missing setting(s) {', '.join(missing)}" if missing else ""]  # fmt: skip
+        raise InputError("; ".join(p for p in parts if p))
+    values = dict(data)
+    jet = values["jet"]
+    if not isinstance(jet, dict):
+        raise InputError(f"jet must be a JSON object, got {type(jet).__name__}")
+    jet_names = {f.name for f in dataclasses.fields(JetConfig)}
+    if set(jet) != jet_names:
+        raise InputError(f"jet settings must be {', '.join(sorted(jet_names))}, got {', '.join(sorted(jet))}")
+    try:
+        domain = None if jet["domain"] is None else tuple(jet["domain"])
+        values["jet"] = JetConfig(**{**jet, "center": tuple(jet["center"]), "domain": domain})
+        values["box"] = tuple(values["box"])
+        config = GAConfig(**values)
+    except TypeError as exc:
+        raise InputError(f"a setting has the wrong type ({exc})") from exc
+    if _jsonable(config) != json.loads(json.dumps(data)):
+        raise InputError("a setting has the wrong type (it does not read back as written)")
+    return config
+
+
+def read_config(run_dir: str | os.PathLike[str]) -> GAConfig | None:
+    """The configuration recorded in ``run_dir/config.json``, or None when there is none.
+
+    Raises
+    ------
+    CheckpointError
+        A malformed or invalid ``config.json``, or checkpoints without a ``config.json``.
+    """
+    path = Path(run_dir) / CONFIG_NAME
+    if not path.exists():
+        found = checkpoints(run_dir)
+        if found:
+            raise CheckpointError(
+                f"{run_dir} holds GA checkpoints ({found[0].name}) but no {CONFIG_NAME}, so they cannot be "
+                "checked against any settings; restore the file or use a new run directory"
+            )
+        return None
+    if not path.is_file():
+        raise CheckpointError(f"{path}: not a file")
+    data = read_json(path, "GA configuration")
+    try:
+        return config_from_dict(data)
+    except InputError as exc:
+        raise CheckpointError(f"{path}: not a valid GA configuration: {exc}") from exc
+
+
+def write_config(run_dir: str | os.PathLike[str], config: GAConfig) -> Path:
+    """Create ``run_dir`` and record ``config``, or check it against the recorded one.
+
+    Raises
+    ------
+    InputError
+        When ``run_dir`` holds a run with another configuration (the settings that differ
+        are named).
+    CheckpointError
+        When the recorded configuration is unreadable.
+    """
+    run_dir = Path(run_dir)
+    recorded = read_config(run_dir) if run_dir.is_dir() else None
+    if recorded is not None:
+        previous, wanted = _jsonable(recorded), _jsonable(config)
+        if previous != wanted:
+            changed = sorted(k for k in set(previous) | set(wanted) if previous.get(k) != wanted.get(k))
+            raise InputError(
+                f"{run_dir} holds a run with a different configuration (differs in: {', '.join(changed)}); "
+                "use a new run directory, or resume with the same settings"
+            )
+        return run_dir
+    run_dir.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(run_dir / CONFIG_NAME, json.dumps(_jsonable(config), indent=2, sort_keys=True) + "\n")
+    return run_dir

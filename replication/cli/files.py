@@ -1,0 +1,91 @@
+"""Output files of the surface commands: checked before any work, written all or none.
+
+A command that writes a surface (``-o``) and the generated cloud (``--save-cloud``) checks
+first that every output's directory exists and that no output is the same file as an input
+or as another output (:func:`replication.io.paths.check_distinct`); it writes only after
+the work succeeded, and a failed write removes the files the command had just created.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from replication.errors import InputError
+
+__all__ = ["check_outputs", "save_generated_cloud", "suffix_warning", "write_all_or_none"]
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Before any work: every output's directory exists, and no output is an input or another output.
+
+    The outputs are ``-o/--output`` and ``--save-cloud``; the input is INPUT. Names are
+    compared by resolved path and, for existing files, by device and inode (links too).
+    """
+    from replication.io import CLOUD_SUFFIXES
+    from replication.io.atomic import check_output_path
+    from replication.io.paths import check_distinct
+
+    outputs = [("-o", getattr(args, "output", None)), ("--save-cloud", getattr(args, "save_cloud", None))]
+    for _, path in outputs:
+        if path:
+            check_output_path(path)
+    cloud_file = getattr(args, "save_cloud", None)
+    if cloud_file and Path(cloud_file).suffix.lower() not in CLOUD_SUFFIXES:
+        raise InputError(
+            f"--save-cloud {cloud_file}: unsupported point-cloud file type "
+            f"{Path(cloud_file).suffix or '(none)'!r}; use one of {', '.join(CLOUD_SUFFIXES)}"
+        )
+    check_distinct(outputs, [("INPUT", getattr(args, "input", None))])
+
+
+def suffix_warning(path: str | None, fmt: str | None, names: dict[str, str]) -> None:
+    """Warn when ``--format`` writes a file under another format's suffix (``.vtk`` holding VTP)."""
+    if not path or not fmt:
+        return
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix != fmt:
+        print(
+            f"warning: {path} gets --format {fmt} ({names[fmt]}) under a .{suffix or '(no suffix)'} name; "
+            "programs that go by the suffix will misread it",
+            file=sys.stderr,
+        )
+
+
+def save_generated_cloud(cloud: np.ndarray, args: argparse.Namespace, meta: dict[str, Any]) -> None:
+    """Write the --save-cloud file (after the command's work succeeded) and note it in ``meta``."""
+    if getattr(args, "save_cloud", None):
+        from replication.io import save_cloud
+
+        meta["cloud_file"] = args.save_cloud
+        meta["cloud_bytes"] = save_cloud(cloud, args.save_cloud)
+
+
+def write_all_or_none(*writers: tuple[str | None, Any]) -> list[Any]:
+    """Run ``(path, write)`` pairs in order; if one fails, remove the files the others created.
+
+    Each writer is atomic by itself; a file that existed before is left as the writer left
+    it (replaced), a file this call created is removed, so a failed command leaves no new file.
+    """
+    done: list[Path] = []
+    results = []
+    try:
+        for path, write in writers:
+            if path is None:
+                results.append(None)
+                continue
+            existed = Path(path).exists()
+            results.append(write())
+            if not existed:
+                done.append(Path(path))
+    except BaseException:
+        for path in done:
+            with contextlib.suppress(OSError):
+                path.unlink()
+        raise
+    return results

@@ -1,0 +1,102 @@
+"""Where the report commands write, checked before the work starts.
+
+* ``reports/`` is the canonical, committed set of results: the paper's settings write there
+  (``reproduce``, ``table1``, ``casestudy`` with its defaults), or any run the user points at
+  it with ``--output-dir``. ``--quick`` runs go to ``reports-quick/``; a case study with other
+  settings reports into its own GA run directory (see :mod:`replication.cli.casestudy`).
+* Output directories are checked for writability (a probe file) before minutes of computing,
+  and created only when there is something to write, so a failed command leaves none behind.
+* When the reports land in ``reports/`` of a checkout of this project, the README's headline
+  block is refreshed from the same data: the README then always states the numbers of the
+  reports beside it, which is what ``tests/test_readme.py`` checks, so running the README's
+  two commands in order (``replication reproduce``, then the tests) stays green on any machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import re
+from pathlib import Path
+
+from replication.io.paths import check_writable_dir
+
+__all__ = [
+    "DEFAULT_DIR",
+    "QUICK_DIR",
+    "checkout_readme",
+    "finish_reports",
+    "missing_dirs",
+    "planned_output_dir",
+    "remove_unused_run_dir",
+]
+
+DEFAULT_DIR = "reports"
+QUICK_DIR = "reports-quick"
+
+
+def planned_output_dir(args: argparse.Namespace) -> Path:
+    """The reports directory of ``table1``/``reproduce``, checked (not created)."""
+    explicit = getattr(args, "output_dir", None)
+    out = Path(explicit or (QUICK_DIR if getattr(args, "quick", False) else DEFAULT_DIR))
+    check_writable_dir(out, "--output-dir" if explicit else "the reports directory")
+    return out
+
+
+def checkout_readme(out: str | Path) -> Path | None:
+    """The README whose headline block describes ``out``, when ``out`` is ``reports/`` of a checkout.
+
+    A checkout of this project is recognised by a ``pyproject.toml`` declaring the
+    ``replication`` project and a ``README.md`` with the headline markers, both beside ``out``.
+    """
+    from replication.report.index import END, START
+
+    out = Path(out).resolve()
+    root = out.parent
+    if out.name != DEFAULT_DIR:
+        return None
+    readme, project = root / "README.md", root / "pyproject.toml"
+    try:
+        if not re.search(r'(?m)^name\s*=\s*"replication"\s*$', project.read_text(encoding="utf-8")):
+            return None
+        text = readme.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None
+    return readme if START in text and END in text else None
+
+
+def finish_reports(out: Path) -> list[Path]:
+    """Render ``index.md``; in a checkout's ``reports/`` also refresh the README headline block."""
+    from replication.report.index import render_index, update_readme
+
+    out.mkdir(parents=True, exist_ok=True)
+    written = [render_index(out)]
+    readme = checkout_readme(out)
+    if readme is not None:
+        written.append(update_readme(readme, out))
+    return written
+
+
+def missing_dirs(path: Path) -> tuple[Path, ...]:
+    """``path`` and its ancestors that do not exist yet (deepest first)."""
+    missing = []
+    while not path.exists() and path != path.parent:
+        missing.append(path)
+        path = path.parent
+    return tuple(missing)
+
+
+def remove_unused_run_dir(run_dir: Path, created: tuple[Path, ...]) -> None:
+    """After a failure, remove the GA run directories a command created, if it made no checkpoint.
+
+    A run directory with checkpoints is kept (it can be resumed); one holding only the
+    ``config.json`` written at the start is not worth leaving behind after an error.
+    """
+    from replication.casestudy.rundir import CONFIG_NAME, checkpoints
+
+    if not created or checkpoints(run_dir):
+        return
+    with contextlib.suppress(OSError):
+        (run_dir / CONFIG_NAME).unlink(missing_ok=True)
+        for directory in created:  # deepest first; stops at the first one not empty
+            directory.rmdir()

@@ -1,0 +1,104 @@
+"""Checks on the files and directories a command will write, made before any work.
+
+Two names can denote one file: ``c.csv`` and ``./c.csv``, a symbolic link and its target,
+two hard links. Writing an output over an input (or two outputs over each other) would
+destroy data while reporting success, so outputs are compared with the inputs and with one
+another both by resolved path and, for files that exist, by device and inode. Directories
+are checked for writability by really creating (and removing) a probe file, since
+permission bits say nothing about a read-only file system and are ignored for root.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Iterable
+from pathlib import Path
+
+from replication.errors import OutputError
+
+__all__ = ["check_distinct", "check_writable_dir", "same_file"]
+
+Named = tuple[str, str | os.PathLike[str]]
+
+
+def _identity(path: Path) -> tuple[int, int] | None:
+    try:
+        st = path.stat()  # follows symbolic links: a link and its target are one file
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino
+
+
+def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
+    """Whether two names denote the same file (resolved path, or device and inode)."""
+    pa, pb = Path(a), Path(b)
+    if pa.resolve() == pb.resolve():
+        return True
+    ia, ib = _identity(pa), _identity(pb)
+    return ia is not None and ia == ib
+
+
+def check_distinct(outputs: Iterable[Named], inputs: Iterable[Named] = ()) -> None:
+    """Refuse outputs that are the same file as an input or as another output.
+
+    Parameters
+    ----------
+    outputs, inputs : iterable of (label, path)
+        The label names the option in the message (``"-o"``, ``"--save-cloud"``, ``"INPUT"``).
+        Entries whose path is None are skipped.
+
+    Raises
+    ------
+    OutputError
+        Naming both options and both paths.
+    """
+    outs = [(label, path) for label, path in outputs if path is not None]
+    ins = [(label, path) for label, path in inputs if path is not None]
+    for k, (label, path) in enumerate(outs):
+        for in_label, in_path in ins:
+            if same_file(path, in_path):
+                raise OutputError(
+                    f"{label} {path} is the same file as {in_label} {in_path}: writing it would destroy "
+                    "the input; choose another output name"
+                )
+        for other_label, other in outs[:k]:
+            if same_file(path, other):
+                raise OutputError(
+                    f"{other_label} {other} and {label} {path} are the same file: one output would "
+                    "overwrite the other; choose two different names"
+                )
+
+
+def check_writable_dir(path: str | os.PathLike[str], what: str) -> Path:
+    """Check, without creating it, that directory ``path`` exists or can be created, and is writable.
+
+    The nearest existing ancestor must be a directory in which a file can be created (a
+    probe file is created and removed at once). ``what`` names the option in the message
+    (``"--output-dir"``).
+
+    Raises
+    ------
+    OutputError
+        When ``path`` (or an ancestor) is a file, or no file can be created there.
+    """
+    target = Path(path)
+    existing = target
+    while not existing.exists():
+        if existing.is_symlink():
+            raise OutputError(f"{what} {target}: {existing} is a broken symbolic link")
+        parent = existing.parent
+        if parent == existing:
+            break
+        existing = parent
+    if not existing.is_dir():
+        where = "is a file" if existing == target else f"cannot be created: {existing} is a file"
+        raise OutputError(f"{what} {target} {where}, not a directory")
+    try:
+        with tempfile.TemporaryFile(dir=existing, prefix=".replication-probe-"):
+            pass
+    except OSError as exc:
+        reason = exc.strerror or str(exc)
+        where = "" if existing == target else f" (it would be created in {existing})"
+        raise OutputError(f"{what} {target} is not writable{where}: {reason}") from exc
+    return target

@@ -1,0 +1,330 @@
+"""Every way a user can get a command wrong ends in one clear line, never a traceback."""
+
+import json
+import shutil
+import socket
+
+import numpy as np
+import pytest
+
+from replication.cli import main
+from replication.io import save_cloud
+
+TINY = ["--runs", "1", "--generations", "2", "--population", "6", "--executor", "serial"]
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def one_line(err, command):
+    return err.startswith(f"replication {command}: error: ") and err.count("\n") == 1
+
+
+@pytest.fixture
+def no_experiment(monkeypatch):
+    """Fail loudly if a command starts an experiment: its checks must come first."""
+
+    def started(*args, **kwargs):
+        raise AssertionError("the experiment started before the output checks")
+
+    monkeypatch.setattr("replication.experiments.table1.run_table1", started)
+    monkeypatch.setattr("replication.experiments.casestudy.run_casestudy", started)
+
+
+# ---- output and run directories, checked before any experiment ---------------------------------
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["table1", "--quick", "--output-dir", "{file}"],
+        ["reproduce", "--quick", "--output-dir", "{file}"],
+        ["casestudy", *TINY, "--output-dir", "{file}", "--run-dir", "{tmp}/run"],
+        ["casestudy", *TINY, "--run-dir", "{file}"],
+        ["casestudy", *TINY, "--run-dir", "{file}/sub"],
+        ["table1", "--output-dir", "{file}/sub"],
+    ],
+)
+def test_output_or_run_dir_that_is_a_file(capsys, tmp_path, monkeypatch, no_experiment, argv):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "afile").write_text("x")
+    argv = [a.format(file=tmp_path / "afile", tmp=tmp_path) for a in argv]
+    code, _, err = run(capsys, *argv)
+    assert code == 1 and one_line(err, argv[0]), err
+    assert "afile" in err and "not a directory" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
+
+
+@pytest.mark.skipif(not __import__("os").path.isdir("/sys/kernel"), reason="needs sysfs (refuses new files)")
+@pytest.mark.parametrize("command", ["table1", "reproduce", "casestudy"])
+def test_unwritable_output_dir_refused_before_the_experiment(
+    capsys, tmp_path, monkeypatch, no_experiment, command
+):
+    monkeypatch.chdir(tmp_path)
+    extra = [*TINY, "--run-dir", tmp_path / "run"] if command == "casestudy" else ["--quick"]
+    code, _, err = run(capsys, command, *extra, "--output-dir", "/sys/kernel/replication-reports")
+    assert code == 1 and one_line(err, command) and "is not writable" in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(not __import__("os").path.isdir("/sys/kernel"), reason="needs sysfs (refuses new files)")
+def test_unwritable_working_directory_for_the_default_run_dir(capsys, monkeypatch, no_experiment):
+    monkeypatch.chdir("/sys/kernel")
+    code, _, err = run(capsys, "casestudy", *TINY)
+    assert code == 1 and "the GA run directory casestudy-runs/run-" in err and "is not writable" in err
+
+
+@pytest.mark.parametrize(
+    ("content", "match"),
+    [
+        ("{bad", "malformed JSON"),
+        ("[1, 2]", "expected a JSON object"),
+        ('{"population": 6}', "missing setting"),
+        (b"\xff\xfe", "not UTF-8"),
+    ],
+)
+def test_corrupt_config_json(capsys, tmp_path, no_experiment, content, match):
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    config = run_dir / "config.json"
+    config.write_bytes(content if isinstance(content, bytes) else content.encode())
+    for resume in ([], ["--resume"]):
+        code, _, err = run(capsys, "casestudy", *TINY[-2:], "--run-dir", run_dir, *resume)
+        assert code == 1 and one_line(err, "casestudy") and str(config) in err and match in err, err
+
+
+# ---- executors ------------------------------------------------------------------------------------
+
+
+def _closed_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_unreachable_scheduler_fails_fast_in_one_line(capsys, tmp_path, monkeypatch):
+    pytest.importorskip("dask.distributed")
+    monkeypatch.chdir(tmp_path)
+    address = f"tcp://127.0.0.1:{_closed_port()}"
+    code, _, err = run(capsys, "casestudy", *TINY[:6], "--scheduler", address)
+    assert code == 1 and f"cannot reach a dask scheduler at {address}" in err
+    assert err.splitlines()[-1].startswith("replication casestudy: error:") and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []  # the run directory it had created is gone again
+
+
+@pytest.mark.parametrize("address", ["notanaddress::", "tcp://host-without-port", "xyz://a:1"])
+def test_malformed_scheduler_address_refused_before_work(
+    capsys, tmp_path, monkeypatch, no_experiment, address
+):
+    pytest.importorskip("dask.distributed")
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run(capsys, "casestudy", *TINY[:6], "--scheduler", address)
+    assert code == 1 and one_line(err, "casestudy") and "is not a dask scheduler address" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("options", "match"),
+    [
+        (["--executor", "serial", "--workers", "3"], "does not apply to the serial executor"),
+        (["--executor", "serial", "--scheduler", "tcp://127.0.0.1:8786"], "does not use"),
+        (["--executor", "process", "--scheduler", "tcp://127.0.0.1:8786"], "does not use"),
+        (["--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"], "give one of them"),
+    ],
+)
+def test_executor_options_that_would_be_ignored(capsys, tmp_path, monkeypatch, no_experiment, options, match):
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run(capsys, "casestudy", *TINY[:6], *options)
+    assert code == 1 and one_line(err, "casestudy") and match in err
+
+
+# ---- report -------------------------------------------------------------------------------------
+
+
+@pytest.fixture
+def report_copy(quick_reports, tmp_path):
+    """A copy of the quick run's case-study data (rendering it fails before any figure)."""
+    out = tmp_path / "rep"
+    shutil.copytree(quick_reports / "data", out / "data", ignore=shutil.ignore_patterns("table1*"))
+    return out
+
+
+def _only(out, experiment):
+    for path in (out / "data").glob("*"):
+        if path.is_file() and not path.name.startswith(experiment):
+            path.unlink()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("name", "content", "match"),
+    [
+        ("casestudy_runs.csv", 'garbage"\n\x00\x01,"\n1,2,3\n', "casestudy_runs.csv"),
+        ("casestudy_runs.csv", "", "not a readable CSV table"),
+        ("casestudy_runs.csv", "run,best_N\n0,1.0\n", "missing column(s) seed"),
+        ("casestudy_provenance.json", "{bad", "malformed JSON"),
+        ("casestudy_provenance.json", "{}", "casestudy data under"),
+        ("table1_provenance.json", "[1]", "expected a JSON object"),
+        ("table1_montecarlo.csv", "n,quantity\n9,x\n", "table1 data under"),
+    ],
+)
+def test_report_with_corrupt_data(capsys, quick_reports, tmp_path, name, content, match):
+    report_copy = tmp_path / "rep"
+    experiment = name.split("_")[0]
+    shutil.copytree(quick_reports / "data", report_copy / "data", ignore=shutil.ignore_patterns("*meshes*"))
+    _only(report_copy, experiment)
+    (report_copy / "data" / name).write_text(content)
+    code, _, err = run(capsys, "report", "--output-dir", report_copy)
+    assert code == 1 and one_line(err, "report") and match in err, err
+
+
+@pytest.mark.slow
+def test_report_readme_problems(capsys, report_copy, tmp_path):
+    (tmp_path / "plain.md").write_text("no markers\n")
+    cases = [
+        (tmp_path / "missing.md", "no such file"),
+        (tmp_path, "is a directory"),
+        (tmp_path / "plain.md", "no <!-- headline:start -->"),
+    ]
+    for readme, match in cases:
+        code, _, err = run(capsys, "report", "--output-dir", report_copy, "--readme", readme)
+        assert code == 1 and one_line(err, "report") and match in err, err
+    index = report_copy / "index.md"
+    index.write_text("<!-- headline:start -->\n<!-- headline:end -->\n")
+    code, _, err = run(capsys, "report", "--output-dir", report_copy, "--readme", index)
+    assert code == 1 and one_line(err, "report") and "--readme" in err and "are the same file" in err, err
+
+
+def test_report_without_a_reports_directory(capsys, tmp_path):
+    code, _, err = run(capsys, "report", "--output-dir", tmp_path / "none")
+    assert code == 1 and one_line(err, "report") and "does not exist" in err
+
+
+# ---- surfaces -------------------------------------------------------------------------------------
+
+
+def test_tessellation_that_cannot_fit_in_memory(capsys):
+    code, _, err = run(capsys, "nurbs", "--random", "20", "--seed", "1", "--tessellation", "100000x100000")
+    assert code == 1 and one_line(err, "nurbs")
+    assert "needs about 4.09 TiB of memory" in err and "10,000,000,000 samples" in err
+
+
+def test_margin_and_alpha_must_be_finite(capsys):
+    for option, value in (("--margin", "inf"), ("--margin", "nan"), ("--margin", "-0.1"), ("--alpha", "1.5")):
+        with pytest.raises(SystemExit) as exc:
+            main(["compare", "--random", "30", "--seed", "1", option, value])
+        assert exc.value.code == 2 and "expected" in capsys.readouterr().err
+
+
+def test_malformed_vtk_files_give_one_line_and_no_vtk_log(capfd, tmp_path):
+    bad_vtk = tmp_path / "bad.vtk"
+    bad_vtk.write_text(
+        "# vtk DataFile Version 3.0\nx\nASCII\nDATASET POLYDATA\nPOINTS 3 double\n0 0 0\n1 0\n"
+    )
+    bad_vtp = tmp_path / "bad.vtp"
+    bad_vtp.write_text('<VTKFile type="PolyData"><PolyData><Piece NumberOfPoints="3">')
+    for path in (bad_vtk, bad_vtp):
+        assert main(["force", str(path)]) == 1
+        out, err = capfd.readouterr()  # file descriptors: VTK writes to fd 2 directly
+        assert one_line(err, "force") and "not a readable VTK surface" in err, err
+
+
+def test_jet_that_misses_prints_zero_not_minus_zero(capsys, tmp_path):
+    save_cloud(np.random.default_rng(0).integers(0, 13, (40, 3)).astype(float), tmp_path / "c.csv")
+    code, out, err = run(capsys, "force", tmp_path / "c.csv", "--center", "500", "0", "--no-domain")
+    assert code == 0 and "axial force 0 N = 0.000 rho Q V" in out and "-0" not in out
+    assert "warning: the jet misses the surface" in err
+    code, out, _ = run(capsys, "force", tmp_path / "c.csv", "--center", "500", "0", "--no-domain", "--json")
+    assert json.loads(out)["axial_force_N"] == 0 and "-0.0" not in out.split('"axial_force_N"')[1][:8]
+
+
+def test_random_bytes_npy_never_advises_pickle(capsys, tmp_path):
+    (tmp_path / "r.npy").write_bytes(np.random.default_rng(0).bytes(300))
+    np.save(tmp_path / "o.npy", np.array([{"a": 1}], dtype=object), allow_pickle=True)
+    for name, match in (("r.npy", "not a .npy array file"), ("o.npy", "holds Python objects")):
+        code, _, err = run(capsys, "adt", tmp_path / name)
+        assert code == 1 and one_line(err, "adt") and match in err
+        assert "allow_pickle" not in err and "pickle.load" not in err
+
+
+def test_underflowing_coordinates_are_named(capsys, tmp_path):
+    np.save(tmp_path / "tiny.npy", np.random.default_rng(0).random((20, 3)) * 1e-300)
+    code, _, err = run(capsys, "adt", tmp_path / "tiny.npy")
+    assert code == 1 and one_line(err, "adt") and "coordinates underflow" in err and "collinear" not in err
+    np.save(tmp_path / "small.npy", np.random.default_rng(0).random((20, 3)) * 1e-150)
+    assert run(capsys, "adt", tmp_path / "small.npy")[0] == 0  # small but representable: fine
+
+
+def test_numeric_header_row_is_detected_or_reported(tmp_path):
+    from replication.io import load_cloud
+
+    (tmp_path / "floats.csv").write_text("0,1,2\n1.5,2,3\n4,5.25,6\n7,8,1.5\n")
+    (tmp_path / "ints.csv").write_text("0,1,2\n1,2,3\n4,5,6\n7,1,1\n")
+    with pytest.warns(UserWarning, match="looks like pandas' header of column numbers and was skipped"):
+        assert load_cloud(tmp_path / "floats.csv").shape == (3, 3)
+    with pytest.warns(UserWarning, match=r"was read as the point \(0, 1, 2\)"):
+        assert load_cloud(tmp_path / "ints.csv").shape == (4, 3)
+
+
+def test_build_seconds_excludes_loading_the_kernels(capsys, monkeypatch):
+    import replication.cli.surfaces as cli_surfaces
+    import replication.surfaces
+
+    events = []
+    real_adt = replication.surfaces.adt
+
+    class Clock:
+        now = 100.0
+
+        def perf_counter(self):
+            events.append("clock")
+            self.now += 0.25
+            return self.now
+
+    def warm(kind, args):
+        events.append("warm")
+        return 0.5
+
+    def adt(*args, **kwargs):
+        events.append("adt")
+        return real_adt(*args, **kwargs)
+
+    monkeypatch.setattr(cli_surfaces, "time", Clock())
+    monkeypatch.setattr(cli_surfaces, "warm_up", warm)
+    monkeypatch.setattr(replication.surfaces, "adt", adt)
+    code, out, _ = run(capsys, "adt", "--random", "50", "--seed", "1", "--json")
+    report = json.loads(out)
+    assert code == 0 and events == ["warm", "clock", "adt", "clock"]
+    assert report["build_seconds"] == 0.25 and report["startup_seconds"] == 0.5
+
+
+# ---- the catch-all ------------------------------------------------------------------------------
+
+
+def test_unexpected_errors_are_one_line_with_a_debug_hint(capsys, monkeypatch):
+    def boom(args):
+        raise RuntimeError("something nobody foresaw\nover two lines")
+
+    monkeypatch.setattr("replication.cli.surfaces._cmd_adt", boom)
+    code, _, err = run(capsys, "adt", "--random", "5")
+    assert code == 1 and one_line(err, "adt")
+    assert "unexpected RuntimeError: something nobody foresaw over two lines" in err
+    assert "run with --debug for the traceback" in err
+    for argv in (["--debug", "adt", "--random", "5"], ["adt", "--random", "5", "--debug"]):
+        with pytest.raises(RuntimeError, match="nobody foresaw"):
+            main(argv)
+
+
+def test_interrupt_inside_compiled_code_exits_130(capsys, monkeypatch):
+    def interrupted(args):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise SystemError("<function trace> returned a result with an exception set") from exc
+
+    monkeypatch.setattr("replication.cli.surfaces._cmd_adt", interrupted)
+    code, _, err = run(capsys, "adt", "--random", "5")
+    assert code == 130 and err == "replication adt: interrupted\n"

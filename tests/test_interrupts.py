@@ -1,0 +1,133 @@
+"""Ctrl-C during a GA run, for real: SIGINT to a running ``replication casestudy`` process group.
+
+Each run is interrupted at its own moment (a few milliseconds after a given generation was
+checkpointed, so inside the next generation's evaluations, most of whose time is spent in the
+compiled jet kernel), must stop with exit status 130, keep its last complete checkpoint with
+no failure recorded, and, resumed, end bit-identical to an uninterrupted run.
+"""
+
+import functools
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+from replication.casestudy.evaluate import executor
+from replication.casestudy.ga import GAConfig
+from replication.casestudy.runner import run_ga
+
+CONFIG = GAConfig(runs=1, generations=12, population=12)
+ARGS = ["--runs", "1", "--generations", "12", "--population", "12"]
+serial = functools.partial(executor, "serial")
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory):
+    run_dir = tmp_path_factory.mktemp("uninterrupted")
+    run_ga(CONFIG, 0, run_dir=run_dir, pool_factory=serial)
+    return _state(run_dir)
+
+
+def _state(run_dir):
+    state = json.loads((run_dir / "run-0.json").read_text())
+    state.pop("seconds")  # wall-clock times are not state
+    return state
+
+
+def _generation(run_dir):
+    try:
+        return json.loads((run_dir / "run-0.json").read_text())["generation"]
+    except (OSError, ValueError):
+        return 0
+
+
+def _interrupt(run_dir, executor_args, after_generation, delay, timeout=120):
+    """Start a GA run, press Ctrl-C (SIGINT to its process group) at the given moment."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", "replication", "casestudy", *ARGS, *executor_args, "--run-dir", str(run_dir)],
+        cwd=run_dir.parent, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+    )  # fmt: skip
+
+    def press_ctrl_c():
+        deadline = time.monotonic() + timeout
+        while _generation(run_dir) < after_generation and process.poll() is None:
+            if time.monotonic() > deadline:
+                break
+            time.sleep(0.002)
+        time.sleep(delay)
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGINT)
+
+    presser = threading.Thread(target=press_ctrl_c)
+    presser.start()
+    return process, presser
+
+
+def _check_stopped(process, presser, run_dir, timeout=180):
+    out, err = process.communicate(timeout=timeout)
+    presser.join()
+    assert process.returncode == 130, err
+    assert "Traceback" not in err and err.rstrip().endswith("replication casestudy: interrupted"), err
+    hint = f"resume with: replication casestudy --run-dir {run_dir} --resume"
+    assert hint in err, err
+    state = _state(run_dir)
+    assert 1 <= state["generation"] < CONFIG.generations
+    assert state["failures"] == [] and all(f is not None for f in state["fitness"])
+    return state
+
+
+#: (executor options, generation after whose checkpoint Ctrl-C is pressed, delay in seconds)
+CASES = {
+    "serial-1": (["--executor", "serial"], 1, 0.0),
+    "serial-2": (["--executor", "serial"], 1, 0.013),
+    "serial-3": (["--executor", "serial"], 2, 0.029),
+    "serial-4": (["--executor", "serial"], 3, 0.007),
+    "process": (["--executor", "process", "--workers", "1"], 2, 0.01),
+    "dask": (["--executor", "dask", "--workers", "1"], 2, 0.01),
+}
+
+
+@pytest.fixture(scope="module")
+def interrupted(tmp_path_factory):
+    """Every case started at once (each is pressed at its own moment); their run directories."""
+    base = tmp_path_factory.mktemp("interrupted")
+    cases = {name: case for name, case in CASES.items() if name != "dask" or _has_dask()}
+    started = {name: (base / name, *_interrupt(base / name, *case)) for name, case in cases.items()}
+    yield started
+    for _, process, presser in started.values():  # after a failed check: stop what still runs
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.communicate()
+        presser.join()
+
+
+def _has_dask():
+    try:
+        import dask.distributed  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+@pytest.mark.parametrize("name", [n for n in CASES if n.startswith("serial")])
+def test_ctrl_c_in_a_serial_run(interrupted, uninterrupted, name):
+    run_dir, process, presser = interrupted[name]
+    _check_stopped(process, presser, run_dir)
+    run_ga(CONFIG, 0, run_dir=run_dir, pool_factory=serial, resume=True)
+    assert _state(run_dir) == uninterrupted
+
+
+@pytest.mark.parametrize("name", ["process", "dask"])
+def test_ctrl_c_with_worker_processes(interrupted, uninterrupted, name):
+    """Ctrl-C reaches the workers too (one process group): still no failure, a clean stop."""
+    if name not in interrupted:
+        pytest.skip("dask is not installed")
+    run_dir, process, presser = interrupted[name]
+    _check_stopped(process, presser, run_dir)
+    run_ga(CONFIG, 0, run_dir=run_dir, pool_factory=serial, resume=True)
+    assert _state(run_dir) == uninterrupted

@@ -1,0 +1,159 @@
+"""Outputs never destroy inputs or each other, and a failed command leaves no new file behind."""
+
+import os
+
+import numpy as np
+import pytest
+
+from replication.cli import main
+from replication.errors import OutputError
+from replication.io import save_cloud
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def cloud(tmp_path):
+    path = tmp_path / "c.csv"
+    save_cloud(np.random.default_rng(3).integers(0, 30, (40, 3)).astype(float), path)
+    return path
+
+
+def _aliases(path):
+    """Other names of ``path``: ./ prefix, a symbolic link, a hard link, a detour through '..'."""
+    d = path.parent
+    os.symlink(path.name, d / "link.csv")
+    os.link(path, d / "hard.csv")
+    return {
+        "same": path,
+        "dot": d / "." / path.name,
+        "detour": d / ".." / d.name / path.name,
+        "symlink": d / "link.csv",
+        "hardlink": d / "hard.csv",
+    }
+
+
+@pytest.mark.parametrize("alias", ["same", "dot", "detour", "symlink", "hardlink"])
+@pytest.mark.parametrize("command", [["adt", "--format", "vtk"], ["nurbs", "--format", "smesh"]])
+def test_output_over_the_input_is_refused_before_any_work(capsys, cloud, alias, command):
+    before = cloud.read_bytes()
+    target = _aliases(cloud)[alias]
+    code, out, err = run(capsys, command[0], cloud, *command[1:], "-o", target)
+    assert code == 1 and out == ""
+    assert "is the same file as INPUT" in err and err.count("\n") == 1, err
+    assert cloud.read_bytes() == before
+
+
+@pytest.mark.parametrize("command", ["adt", "nurbs", "compare"])
+def test_save_cloud_over_the_output_is_refused(capsys, tmp_path, command):
+    target = tmp_path / "F.csv"
+    extra = (
+        []
+        if command == "compare"
+        else ["-o", tmp_path / "./F.csv", "--format", "vtk" if command == "adt" else "smesh"]
+    )
+    code, _, err = run(capsys, command, "--random", "30", "--seed", "1", "--save-cloud", target, *extra)
+    if command == "compare":  # compare writes no other file: --save-cloud alone is fine
+        assert code == 0 and target.is_file()
+        return
+    assert code == 1 and "are the same file" in err and "--save-cloud" in err
+    assert not target.exists()
+
+
+def test_save_cloud_and_output_both_written_when_distinct(capsys, tmp_path):
+    code, out, _ = run(capsys, "adt", "--random", "30", "--seed", "1", "--save-cloud", tmp_path / "c.csv",
+                       "-o", tmp_path / "s.vtk")  # fmt: skip
+    assert code == 0 and (tmp_path / "c.csv").is_file() and (tmp_path / "s.vtk").is_file()
+    assert f"wrote the cloud to {tmp_path / 'c.csv'}" in out
+
+
+def test_a_failed_command_leaves_no_saved_cloud(capsys, tmp_path):
+    # a 1 mm lattice in a 1 x 0 x 5 box has 2 distinct (x, y) positions: no surface
+    box = ["--box", "0", "1", "0", "0", "0", "5", "--step", "1", "--depth", "z"]
+    outputs = ["--save-cloud", tmp_path / "c.csv", "-o", tmp_path / "s.vtk"]
+    code, _, err = run(capsys, "adt", "--random", "30", "--seed", "1", *box, *outputs)
+    assert code == 1 and err.startswith("replication adt: error:")
+    assert sorted(tmp_path.iterdir()) == []
+
+
+def test_failed_second_write_removes_the_first(capsys, tmp_path, monkeypatch):
+    import replication.io
+
+    def broken(*args, **kwargs):
+        raise OutputError("disk full")
+
+    monkeypatch.setattr(replication.io, "save_cloud", broken)
+    code, _, err = run(capsys, "adt", "--random", "30", "--seed", "1", "--save-cloud", tmp_path / "c.csv",
+                       "-o", tmp_path / "s.vtk")  # fmt: skip
+    assert code == 1 and "disk full" in err
+    assert sorted(tmp_path.iterdir()) == []
+
+
+def test_save_cloud_bad_suffix_refused_before_work(capsys, tmp_path):
+    code, _, err = run(capsys, "adt", "--random", "30", "--seed", "1", "--save-cloud", tmp_path / "c.dat")
+    assert code == 1 and "--save-cloud" in err and "'.dat'" in err
+
+
+@pytest.mark.parametrize(
+    ("name", "fmt", "warned"),
+    [("s.vtk", "vtp", True), ("s.csv", "vtp", True), ("s.vtp", "vtp", False), ("s.vtk", None, False)],
+)
+def test_format_under_another_suffix_warns(capsys, tmp_path, name, fmt, warned):
+    extra = ["--format", fmt] if fmt else []
+    code, _, err = run(capsys, "adt", "--random", "20", "--seed", "1", "-o", tmp_path / name, *extra)
+    assert code == 0
+    assert ("programs that go by the suffix will misread it" in err) == warned
+
+
+def test_same_file_and_check_distinct(tmp_path):
+    from replication.io.paths import check_distinct, same_file
+
+    a = tmp_path / "a.txt"
+    a.write_text("x")
+    assert same_file(a, tmp_path / "." / "a.txt") and not same_file(a, tmp_path / "b.txt")
+    assert same_file(tmp_path / "new.txt", tmp_path / "sub" / ".." / "new.txt")  # neither exists
+    check_distinct([("-o", tmp_path / "b.txt")], [("INPUT", a)])
+    check_distinct([("-o", None)], [("INPUT", a)])
+    with pytest.raises(OutputError, match="-o .* is the same file as INPUT"):
+        check_distinct([("-o", a)], [("INPUT", a)])
+
+
+def test_writable_dir_checks(tmp_path):
+    from replication.io.paths import check_writable_dir
+
+    (tmp_path / "file").write_text("x")
+    check_writable_dir(tmp_path / "new" / "deeper", "--output-dir")
+    assert not (tmp_path / "new").exists()  # checked, not created
+    with pytest.raises(OutputError, match="--output-dir .*file is a file, not a directory"):
+        check_writable_dir(tmp_path / "file", "--output-dir")
+    with pytest.raises(OutputError, match="cannot be created: .*file is a file"):
+        check_writable_dir(tmp_path / "file" / "sub", "--output-dir")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]  # no probe file left
+
+
+@pytest.mark.skipif(os.geteuid() == 0 if hasattr(os, "geteuid") else True, reason="root writes anywhere")
+def test_read_only_directory_is_refused(tmp_path):
+    from replication.io.paths import check_writable_dir
+
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        with pytest.raises(OutputError, match="is not writable"):
+            check_writable_dir(ro / "out", "--output-dir")
+    finally:
+        ro.chmod(0o755)
+
+
+@pytest.mark.skipif(not os.path.isdir("/sys/kernel"), reason="needs sysfs, where no file can be created")
+def test_unwritable_file_system_is_refused():
+    from replication.io.paths import check_writable_dir
+
+    with pytest.raises(
+        OutputError, match="/sys/kernel/replication-out is not writable .*would be created in"
+    ):
+        check_writable_dir("/sys/kernel/replication-out", "--output-dir")

@@ -1,0 +1,108 @@
+"""Who writes reports/: the paper's settings or an explicit --output-dir; others report beside their run."""
+
+import argparse
+import shutil
+
+import pandas as pd
+import pytest
+
+from replication.cli import main
+
+
+def _args(**changes):
+    base = dict(quick=False, runs=None, generations=None, population=None, seed=None, run_dir=None,
+                resume=False, executor="serial", workers=None, scheduler=None, output_dir=None)  # fmt: skip
+    return argparse.Namespace(**{**base, **changes})
+
+
+@pytest.mark.parametrize(
+    ("changes", "where", "noted"),
+    [
+        ({}, "reports", False),
+        ({"generations": 50, "population": 48}, "reports", False),  # the paper's values, given explicitly
+        ({"quick": True}, "reports-quick", False),
+        ({"runs": 1}, "RUN/report", True),
+        ({"seed": 7}, "RUN/report", True),
+        ({"quick": True, "population": 24}, "RUN/report", True),
+        ({"runs": 1, "output_dir": "mine"}, "mine", False),
+        ({"output_dir": "reports"}, "reports", False),
+    ],
+)
+def test_where_the_case_study_reports(tmp_path, monkeypatch, changes, where, noted):
+    from replication.cli.casestudy import plan_casestudy
+
+    monkeypatch.chdir(tmp_path)
+    plan = plan_casestudy(_args(run_dir="RUN", **changes))
+    assert str(plan.out) == where and bool(plan.note) == noted
+    if noted:
+        assert "settings differ from the paper's" in plan.note and "(paper: " in plan.note
+    assert list(tmp_path.iterdir()) == []  # planning creates nothing
+
+
+def test_resuming_keeps_the_run_s_own_destination(tmp_path, monkeypatch):
+    from replication.casestudy.ga import GAConfig
+    from replication.casestudy.runner import check_run_dir
+    from replication.cli.casestudy import plan_casestudy
+
+    monkeypatch.chdir(tmp_path)
+    check_run_dir("paper", GAConfig())
+    check_run_dir("trial", GAConfig(runs=1, population=24, generations=5))
+    assert str(plan_casestudy(_args(run_dir="paper", resume=True)).out) == "reports"
+    assert str(plan_casestudy(_args(run_dir="trial", resume=True)).out) == "trial/report"
+
+
+@pytest.mark.slow
+def test_report_states_settings_and_keeps_no_stale_figures(capsys, quick_reports, tmp_path):
+    out = tmp_path / "rep"
+    shutil.copytree(quick_reports / "data", out / "data", ignore=shutil.ignore_patterns("table1*"))
+    shutil.copytree(quick_reports / "figures", out / "figures")
+    (out / "figures" / "mine.png").write_bytes(b"not ours")
+    assert (out / "figures" / "casestudy_best_run2.png").is_file() and (
+        out / "figures" / "table1_fig6.png"
+    ).is_file()
+    for name in ("best", "runs", "history"):  # the data of a rerun with runs 0 and 1 only
+        path = out / "data" / f"casestudy_{name}.csv"
+        frame = pd.read_csv(path)
+        frame[frame["run"] < 2].to_csv(path, index=False)
+    assert main(["report", "--output-dir", str(out)]) == 0
+    figures = sorted(p.name for p in (out / "figures").iterdir())
+    assert "casestudy_best_run2.png" not in figures and "casestudy_best_run1.png" in figures
+    assert "mine.png" in figures and "table1_fig6.png" in figures  # not the case study's: kept
+    text = (out / "casestudy.md").read_text()
+    assert (
+        "**Quick run (a reduced GA for smoke testing)**: population 12 (paper: 48); generations 6 (paper: 50)"
+        in text
+    )
+    assert "Settings (the paper's except as stated at the top)" in text
+    assert "replication casestudy               # the paper's settings (this report)" not in text
+    assert "replication reproduce --quick" in text.split("## Reproduce")[1]  # the command that made it
+
+
+def test_no_import_circle_in_the_command_line_package():
+    """cli modules import one way (the casestudy <-> reports pair included), at any depth."""
+    import ast
+    from pathlib import Path
+
+    import replication.cli
+
+    package = Path(replication.cli.__file__).parent
+    graph = {}
+    for path in package.glob("*.py"):
+        module = f"replication.cli.{path.stem}" if path.stem != "__init__" else "replication.cli"
+        targets = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("replication.cli"):
+                names = [f"{node.module}.{a.name}" for a in node.names]
+                targets |= {
+                    n for n in names if n.rsplit(".", 1)[-1] in {p.stem for p in package.glob("*.py")}
+                }
+                targets.add(node.module)
+        graph[module] = {t for t in targets if t != module and t != "replication.cli"}
+
+    def reaches(start, goal, seen=()):
+        return any(
+            t == goal or (t not in seen and reaches(t, goal, (*seen, t))) for t in graph.get(start, ())
+        )
+
+    circles = sorted(m for m in graph if reaches(m, m))
+    assert circles == [], circles

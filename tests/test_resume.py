@@ -1,0 +1,112 @@
+"""--resume: settings from the run directory, the printed hint works, runs end bit-identical."""
+
+import functools
+import json
+import shlex
+
+import pytest
+
+from replication.casestudy.evaluate import executor
+from replication.casestudy.ga import GAConfig
+from replication.casestudy.runner import check_run_dir, run_ga
+from replication.cli import main
+
+pytestmark = pytest.mark.slow
+
+TINY = GAConfig(runs=1, generations=3, population=6)
+TINY_ARGS = ["--runs", "1", "--generations", "3", "--population", "6", "--executor", "serial"]
+
+
+def _interrupt_after(monkeypatch, generations):
+    """Ctrl-C right after ``generations`` more generations were checkpointed (in-process)."""
+    from replication.cli.progress import Progress
+
+    class Interrupting(Progress):
+        def update(self, steps=1, **postfix):
+            super().update(steps, **postfix)
+            Interrupting.count += steps
+            if Interrupting.count >= generations:
+                raise KeyboardInterrupt
+
+    Interrupting.count = 0
+    monkeypatch.setattr("replication.cli.casestudy.Progress", Interrupting)
+
+
+def _state(path):
+    state = json.loads(path.read_text())
+    state.pop("seconds")  # wall-clock times are not state
+    return state
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """Uninterrupted runs (serial, in-process): the TINY run and the quick configuration's 3 runs."""
+    from replication.experiments.casestudy import quick_ga_config
+
+    out = {}
+    for name, config in (("tiny", TINY), ("quick", quick_ga_config())):
+        run_dir = tmp_path_factory.mktemp(name)
+        for k in range(config.runs):
+            run_ga(config, k, run_dir=run_dir, pool_factory=functools.partial(executor, "serial"))
+        out[name] = run_dir
+    return out
+
+
+def _hint(err):
+    line = next(line for line in err.splitlines() if line.startswith("interrupted: "))
+    return shlex.split(line.split("resume with: ", 1)[1])
+
+
+def test_only_explicit_settings_are_compared(capsys, tmp_path, monkeypatch, reference):
+    import argparse
+
+    from replication.cli.casestudy import plan_casestudy
+
+    monkeypatch.chdir(tmp_path)
+    run_dir = tmp_path / "run"
+    check_run_dir(run_dir, TINY)  # a run interrupted in generation 0: config.json, no checkpoint
+    base = ["casestudy", "--run-dir", str(run_dir), "--resume", "--executor", "serial"]
+    assert main([*base, "--population", "8"]) == 1
+    err = capsys.readouterr().err
+    assert "--population 8 (the run has 6)" in err and "generations" not in err and "runs" not in err
+    assert main([*base, "--quick"]) == 1
+    assert "--generations 6 (the run has 3)" in capsys.readouterr().err
+    args = argparse.Namespace(
+        runs=None, generations=3, population=6, seed=None,  # the recorded settings, given again
+        quick=False, run_dir=str(run_dir), resume=True, executor="serial", workers=None, scheduler=None,
+        output_dir=None,
+    )  # fmt: skip
+    plan = plan_casestudy(args)
+    assert plan.config == TINY and plan.resume and plan.done_generations == 0
+    # the printed hint's form: no settings at all; the run starts from generation 0 and ends as
+    # an uninterrupted one, its report in its own directory (not the paper's settings)
+    assert main(base) == 0, capsys.readouterr().err
+    assert _state(run_dir / "run-0.json") == _state(reference["tiny"] / "run-0.json")
+    assert (run_dir / "report" / "casestudy.md").is_file() and not (tmp_path / "reports").exists()
+
+
+def test_nothing_to_resume(capsys, tmp_path):
+    (tmp_path / "empty").mkdir()
+    for run_dir in (tmp_path / "empty", tmp_path / "missing"):
+        assert main(["casestudy", "--run-dir", str(run_dir), "--resume"]) == 1
+        assert "nothing to resume" in capsys.readouterr().err
+
+
+def test_hint_after_an_interrupted_reproduce_quick(capsys, tmp_path, monkeypatch, reference):
+    """reproduce --quick, Ctrl-C in the GA stage; the printed command finishes the reports."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("os.cpu_count", lambda: 1)  # reproduce's automatic executor: serial, no pool start-up
+    monkeypatch.setattr("replication.cli.reports._run_table1", lambda out, quick, command: out / "table1.md")
+    _interrupt_after(monkeypatch, 4)  # during the second of the three quick runs
+    out = tmp_path / "quick-reports"
+    assert main(["reproduce", "--quick", "--output-dir", str(out)]) == 130
+    hint = _hint(capsys.readouterr().err)
+    assert hint[hint.index("--output-dir") + 1] == str(out)
+    run_dir = tmp_path / hint[hint.index("--run-dir") + 1]
+    monkeypatch.undo()
+    monkeypatch.chdir(tmp_path)
+    assert main([*hint[1:], "--executor", "serial"]) == 0, capsys.readouterr().err
+    for k in range(3):
+        assert _state(run_dir / f"run-{k}.json") == _state(reference["quick"] / f"run-{k}.json")
+    text = (out / "casestudy.md").read_text()
+    assert "Quick run" in text and "[Figs. 8 and 9](casestudy.md)" in (out / "index.md").read_text()
