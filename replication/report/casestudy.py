@@ -35,7 +35,7 @@ COLUMNS: dict[str, tuple[str, ...]] = {
     "runs": ("run", "seed", "best_N", "best_generation", "evaluations", "cache_hits", "failures",
              "wall_s", "seconds_per_evaluation"),
     "shapes": ("shape", "axial_N", "axial_4x_N", "refinement_change_pct", "over_rho_q_v",
-               "full_jet_mirrored_N", "paper_sph_N", "rho_q_v_N"),
+               "full_jet_mirrored_N", "paper_sph", "rho_q_v_N"),
     "evaluation": ("individual", "median", "q1", "q3", "vtk_bytes"),
     "claims": ("claim", "paper", "ours", "verdict", "why"),
     "best": ("run", "x_mm", "y_mm", "z_mm"),
