@@ -152,9 +152,15 @@ def test_the_study_runs_end_to_end_on_three_surfaces_and_reruns_from_its_cache(t
         out / "figures" / "jet_validation_scatter.png"
     ).is_file()
     entries = [p for p in cache.glob("??/*") if (p / "result.json").is_file()]
-    assert len(entries) == 6  # 3 surfaces x 2 radii; the study radius is shared with the resolution study
+    # 3 surfaces x 2 radii (the study radius is shared with the resolution study) + 1 shifted repeat
+    assert len(entries) == 7
     provenance = json.loads((out / "data" / "jet_validation_provenance.json").read_text())
     assert provenance["simulations"] == 6 and provenance["simulation_seconds"] > 0
+    repeat = pd.read_csv(out / "data" / "jet_validation_repeatability.csv")
+    assert repeat["surface"].tolist() == ["random 00"] and repeat["status_shifted"].tolist() == ["ok"]
+    assert abs(repeat["sph_change"].iloc[0]) < 0.3  # a 0.6 mm shift is no new surface
+    noise = pd.read_csv(out / "data" / "jet_validation_noise.csv")
+    assert noise["sigma"].iloc[0] == pytest.approx(abs(repeat["sph_change"].iloc[0]) / np.sqrt(2))
 
     assert main([*argv, "--from-cache"]) == 0
     again = pd.read_csv(out / "data" / "jet_validation_surfaces.csv").set_index("surface")

@@ -64,6 +64,12 @@ class ValidationConfig:
         The thin-sheet GA whose winners are scored (None: no GA winners).
     ga_top : int
         Distinct winners taken from each GA run.
+    repeat_surfaces : tuple of str
+        Surfaces simulated again moved by ``repeat_shift_mm`` along x (the SPH noise floor,
+        :mod:`.jet_repeatability`): a random lattice and a GA winner, the families whose
+        close scores the ranking must separate (two simulations: what the study's time allowed).
+    repeat_shift_mm : float
+        That shift (mm): half a particle radius at the study's resolution.
     bootstrap : int
         Bootstrap resamples of the rank correlations.
     timeout : float
@@ -73,7 +79,7 @@ class ValidationConfig:
     """
 
     radius: float = 0.5e-3
-    resolution_radii: tuple[float, ...] = (1.0e-3, 0.75e-3, 0.5e-3, 0.4e-3)
+    resolution_radii: tuple[float, ...] = (1.0e-3, 0.75e-3, 0.5e-3)
     resolution_surfaces: tuple[str, ...] = (
         "flat plate", "Pelton bucket", "random 00", "random 01", "GA run 0 #1", "GA run 1 #1",
     )  # fmt: skip
@@ -85,6 +91,8 @@ class ValidationConfig:
     seed: int = 11
     ga: GAConfig | None = GAConfig()
     ga_top: int = 5
+    repeat_surfaces: tuple[str, ...] = ("random 00", "GA run 0 #1")
+    repeat_shift_mm: float = 0.25
     bootstrap: int = 10_000
     timeout: float = 3600.0
     jet: JetConfig = JetConfig()
@@ -106,6 +114,8 @@ class ValidationConfig:
                 raise InputError(f"{name} must be a non-negative integer, got {value!r}")
         if self.jet.full_jet:
             raise InputError("the study uses the paper's half jet: JetConfig(full_jet=False)")
+        if not (0 < self.repeat_shift_mm <= 2):
+            raise InputError(f"repeat_shift_mm must lie in (0, 2] mm, got {self.repeat_shift_mm}")
         if self.ga is not None and self.ga.jet != self.jet:
             raise InputError("the GA's jet must be the study's jet")
 
@@ -126,6 +136,7 @@ class ValidationConfig:
             radius=1.25e-3, resolution_radii=(1.5e-3, 1.25e-3), duration=0.014, settle_time=0.006,
             resolution_surfaces=("flat plate", "Pelton bucket", "random 00"),
             angles_deg=(), bowl_depths_mm=(), random_surfaces=1, ga=None, bootstrap=1000, timeout=600.0,
+            repeat_surfaces=("random 00",), repeat_shift_mm=0.6,
         )  # fmt: skip
 
     def as_dict(self) -> dict[str, Any]:
@@ -147,6 +158,8 @@ class ValidationResults:
     vertices: pd.DataFrame  # surface, x, y, z (mm)
     triangles: pd.DataFrame  # surface, a, b, c
     series: pd.DataFrame  # binned SPH force of every study-radius simulation
+    repeatability: pd.DataFrame  # surfaces simulated again shifted by a fraction of a particle
+    noise: pd.DataFrame  # the SPH noise floor and the Spearman it allows
     provenance: dict[str, Any] = field(default_factory=dict)
 
 
@@ -255,7 +268,14 @@ def run_validation(
     """
     from replication.casestudy.sph import engine_version
     from replication.casestudy.sph_batch import SurfaceTask, code_digest, score_surfaces
-    from replication.experiments.jet_validation_tables import agreement_table, convergence_table, series_frame
+    from replication.experiments.jet_repeatability import repeat_table, shifted_jet, shifted_surface
+    from replication.experiments.jet_validation_tables import (
+        SPH_COLUMN,
+        agreement_table,
+        convergence_table,
+        noise_table,
+        series_frame,
+    )
 
     started = time.perf_counter()
     surfaces, built_by = study_surfaces(
@@ -268,12 +288,14 @@ def run_validation(
     by_name = {s.name: s for s in surfaces}
     model = model_scores(surfaces, config.jet).set_index("surface")
 
-    def score(chosen: Sequence[StudySurface], radius: float, stage: str) -> list[Any]:
+    def score(
+        chosen: Sequence[StudySurface], radius: float, stage: str, jet: JetConfig | None = None
+    ) -> list[Any]:
         if on_stage is not None:
             on_stage(stage, len(chosen))
         return score_surfaces(
             [SurfaceTask(s.name, s.points, s.triangles) for s in chosen], config.settings(radius),
-            jet=config.jet, cache_dir=cache_dir, executor=executor, max_parallel=max_parallel,
+            jet=jet or config.jet, cache_dir=cache_dir, executor=executor, max_parallel=max_parallel,
             timeout=config.timeout, retry_failed=retry_failed, simulate_missing=simulate_missing,
             on_result=on_result, simulate=simulate,
         )  # fmt: skip
@@ -298,6 +320,21 @@ def run_validation(
         row["model_over_sph"] = row["model_over_rho_q_v"] / sph if sph > 0 else float("nan")
         rows.append(row)
     table = pd.DataFrame(rows)
+    unknown = [n for n in config.repeat_surfaces if n not in by_name]
+    if unknown:
+        raise InputError(f"repeat_surfaces {unknown} are not surfaces of the study")
+    repeated = [by_name[n] for n in config.repeat_surfaces]
+    moved = [shifted_surface(s, config.repeat_shift_mm) for s in repeated]
+    jet_moved = shifted_jet(config.jet)
+    label = f"repeatability: {len(moved)} surfaces shifted by {config.repeat_shift_mm:g} mm"
+    scored_moved = score(moved, config.radius, label, jet=jet_moved)
+    base = table.set_index("surface")
+    pairs = [
+        (s, base.loc[s.name], _sph_row(sc, jet_moved), float(base.loc[s.name, "model_over_rho_q_v"]),
+         jet_force(m.points, m.triangles, jet_moved).axial_force / config.jet.momentum_flux)
+        for s, m, sc in zip(repeated, moved, scored_moved)
+    ]  # fmt: skip
+    repeatability = repeat_table(pairs, SPH_COLUMN)
     vertices, triangles = _geometry(surfaces)
     rng = np.random.default_rng([config.seed, 1])
     ga_seed = config.ga.seed if config.ga else "-"
@@ -327,6 +364,8 @@ def run_validation(
         vertices=vertices,
         triangles=triangles,
         series=series_frame(surfaces, scored_all),
+        repeatability=repeatability,
+        noise=noise_table(table, repeatability, rng=rng),
         provenance=record,
     )
 

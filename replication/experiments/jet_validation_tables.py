@@ -16,6 +16,7 @@ from replication.experiments.jet_surfaces import FAMILIES
 from replication.experiments.rank_stats import rank_agreement, spearman, top_k_overlap
 
 __all__ = [
+    "noise_table",
     "SPH_COLUMN",
     "TOP_K",
     "agreement_row",
@@ -138,6 +139,35 @@ def residual_table(resolution: pd.DataFrame) -> pd.DataFrame:
         out["residual_bound"] = last.abs() * r1 / (r2 - r1)
     family = resolution.drop_duplicates("surface").set_index("surface")["family"]
     return out.assign(family=family).reset_index()
+
+
+def noise_table(
+    table: pd.DataFrame, repeatability: pd.DataFrame, *, rng: np.random.Generator
+) -> pd.DataFrame:
+    """The SPH noise floor and the Spearman it allows a perfect model, overall and for the spiky.
+
+    ``sigma`` is the noise of one SPH score: the standard deviation of the changes of the
+    repeated (shifted) runs over sqrt(2) (the root mean square, so that a change's sign does
+    not matter). ``spread`` is the standard deviation of the SPH scores themselves.
+    """
+    from replication.experiments.jet_repeatability import noise_ceiling
+
+    changes = repeatability.loc[repeatability["status_shifted"] == "ok", "sph_change"].dropna().to_numpy()
+    sigma = float(np.sqrt(np.mean(changes**2) / 2)) if changes.size else float("nan")
+    ok = table[table["sph_status"] == "ok"]
+    rows = []
+    for scope, part in (
+        ("all surfaces", ok),
+        ("GA winners and random lattices", ok[ok["family"].isin(["GA winner", "random lattice"])]),
+    ):
+        values = part[SPH_COLUMN].to_numpy()
+        rows.append({
+            "scope": scope, "n": len(values), "repeats": int(changes.size), "sigma": sigma,
+            "largest_change": float(np.abs(changes).max()) if changes.size else float("nan"),
+            "spread": float(np.std(values, ddof=1)) if len(values) > 1 else float("nan"),
+            "spearman_ceiling": noise_ceiling(values, sigma, rng=rng),
+        })  # fmt: skip
+    return pd.DataFrame(rows)
 
 
 def series_frame(surfaces: Sequence[Any], scored: Sequence[Any]) -> pd.DataFrame:

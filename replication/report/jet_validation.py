@@ -17,9 +17,13 @@ from replication.io.atomic import atomic_write_text
 from replication.report.jet_validation_figures import resolution_figure, scatter_figure
 from replication.report.jet_validation_text import (
     AGREEMENT_HEADER,
+    NOISE_HEADER,
+    REPEAT_HEADER,
     agreement_rows,
     convergence_rows,
     findings,
+    noise_rows,
+    repeat_rows,
     resolution_rows,
     surface_rows,
     surrogate_section,
@@ -35,7 +39,10 @@ __all__ = [
     "save_jet_validation_data",
 ]
 
-TABLES = ("surfaces", "resolution", "convergence", "agreement", "vertices", "triangles", "series")
+TABLES = (
+    "surfaces", "resolution", "convergence", "agreement", "vertices", "triangles", "series", "repeatability",
+    "noise",
+)  # fmt: skip
 #: Tables of the surrogate (present once it is calibrated).
 OPTIONAL = ("surrogate_surfaces", "surrogate_params", "surrogate_agreement", "departures")
 PREFIX = "jet_validation"
@@ -170,6 +177,20 @@ conservative there).
 {table(convergence_rows(d), CONVERGENCE_HEADER)}
 
 ![Resolution study](figures/jet_validation_resolution.png)
+
+### Repeatability: the SPH noise floor
+
+The same surfaces moved by {config["repeat_shift_mm"]:g} mm along x (relative to the jet and to the
+fluid's particle lattice; a change far below any design change) and simulated again (data:
+`data/jet_validation_repeatability.csv`, `_noise.csv`):
+
+{table(repeat_rows(d), REPEAT_HEADER)}
+
+{table(noise_rows(d), NOISE_HEADER)}
+
+"Noise": the standard deviation of one SPH score, from the changes (their root mean square over
+sqrt 2). "Best Spearman": the median Spearman of the SPH scores against themselves with that noise
+added, the most any model could reach against them.
 
 ## Every surface
 

@@ -13,6 +13,10 @@ from replication.report.markdown import fmt, table
 __all__ = [
     "AGREEMENT_HEADER",
     "GOAL",
+    "NOISE_HEADER",
+    "REPEAT_HEADER",
+    "noise_rows",
+    "repeat_rows",
     "agreement_rows",
     "convergence_rows",
     "findings",
@@ -72,6 +76,36 @@ def convergence_rows(d: dict[str, Any]) -> list[list[str]]:
          _ci(r["kendall"], r["kendall_low"], r["kendall_high"]), fmt(r["max_change"], ".3f"),
          fmt(r["median_change"], ".3f"), fmt(r["model_spearman"], ".2f")]
         for _, r in conv.iterrows()
+    ]  # fmt: skip
+
+
+REPEAT_HEADER = ["surface", "family", "SPH", "SPH shifted", "change", "model", "model shifted", "change"]
+NOISE_HEADER = [
+    "surfaces", "n", "repeats", "noise of one SPH score", "largest change", "spread of the SPH scores",
+    "best Spearman",
+]  # fmt: skip
+
+
+def repeat_rows(d: dict[str, Any]) -> list[list[str]]:
+    rep = d.get("repeatability")
+    if rep is None:
+        return []
+    return [
+        [r["surface"], r["family"], fmt(r["sph"], ".3f"), fmt(r["sph_shifted"], ".3f"),
+         fmt(r["sph_change"], "+.3f"), fmt(r["model"], ".3f"), fmt(r["model_shifted"], ".3f"),
+         fmt(r["model_change"], "+.3f")]
+        for _, r in rep.iterrows()
+    ]  # fmt: skip
+
+
+def noise_rows(d: dict[str, Any]) -> list[list[str]]:
+    noise = d.get("noise")
+    if noise is None:
+        return []
+    return [
+        [r["scope"], fmt(r["n"], "int"), fmt(r["repeats"], "int"), fmt(r["sigma"], ".3f"),
+         fmt(r["largest_change"], ".3f"), fmt(r["spread"], ".3f"), fmt(r["spearman_ceiling"], ".2f")]
+        for _, r in noise.iterrows()
     ]  # fmt: skip
 
 
