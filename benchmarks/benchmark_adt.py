@@ -2,6 +2,8 @@
 
 import os
 
+import numpy as np
+
 from replication.io import write_vtk, write_vtp
 from replication.surfaces import adt
 
@@ -66,3 +68,104 @@ class ADTScale:
         return write_vtp(adt(self.points), os.path.join(self.tmp, "s.vtp"))
 
     track_adt_vtp_bytes.unit = "bytes"
+
+
+#: Set (to anything) to skip the 10-million-point benchmarks on small machines.
+SKIP_1E7 = "REPLICATION_BENCH_SKIP_1E7"
+
+
+def median_ratio(numerator, denominator, repeats=5):
+    """Median over ``repeats`` of (numerator time / denominator time), timed alternately.
+
+    Timing the two in alternation, in the same process, lets slow drifts of a shared machine
+    affect both alike; the median of the per-pair ratios is the recorded comparison.
+    """
+    import time
+
+    ratios = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        numerator()
+        t1 = time.perf_counter()
+        denominator()
+        t2 = time.perf_counter()
+        ratios.append((t1 - t0) / (t2 - t1))
+    ratios.sort()
+    return ratios[len(ratios) // 2]
+
+
+def _skip_large(n):
+    if n >= 10_000_000 and os.environ.get(SKIP_1E7):
+        raise NotImplementedError(f"{SKIP_1E7} is set: 1e7-point benchmarks skipped")
+
+
+class ADTvsTriangle:
+    """adt() against Shewchuk's Triangle on the same (u, v) projection (issue 14: >= 3x at 1e6).
+
+    Triangle is the ``triangle`` package of the bench extra (``pip install '.[bench]'``);
+    its default divide-and-conquer Delaunay triangulation of the vertices.
+    """
+
+    params = [[100_000, 1_000_000]]
+    param_names = ["n"]
+    timeout = 600
+
+    def setup(self, n):
+        try:
+            import triangle
+        except ImportError:
+            raise NotImplementedError("the triangle package is not installed (bench extra)") from None
+        self.triangle = triangle
+        self.points = cloud(n)
+        self.uv = {"vertices": np.ascontiguousarray(adt(self.points).projected())}
+        triangle.triangulate({"vertices": self.uv["vertices"][:100]})
+
+    def time_adt(self, n):
+        adt(self.points)
+
+    def time_triangle(self, n):
+        self.triangle.triangulate(self.uv)
+
+    def track_speedup_over_triangle(self, n):
+        return median_ratio(lambda: self.triangle.triangulate(self.uv), lambda: adt(self.points))
+
+    track_speedup_over_triangle.unit = "x"
+
+
+class ADTLarge:
+    """1e6 and 1e7 points: time and peak memory (issue 14: 1e7 in <= 11x the 1e6 time and
+    <= 1.5 GiB; the cloud itself is 0.22 GiB). Skipped at 1e7 when REPLICATION_BENCH_SKIP_1E7
+    is set."""
+
+    params = [[1_000_000, 10_000_000]]
+    param_names = ["n"]
+    timeout = 1200
+    repeat = (1, 5, 60.0)
+
+    def setup(self, n):
+        _skip_large(n)
+        self.points = cloud(n)
+        adt(cloud(1_000))
+
+    def time_adt(self, n):
+        adt(self.points)
+
+    def peakmem_adt(self, n):
+        adt(self.points)
+
+
+class ADTGrowth:
+    """Time of adt() at 1e7 points over its time at 1e6, timed alternately (issue 14: <= 11)."""
+
+    timeout = 1800
+
+    def setup(self):
+        _skip_large(10_000_000)
+        self.small = cloud(1_000_000)
+        self.large = cloud(10_000_000)
+        adt(self.small)
+
+    def track_time_ratio_1e7_over_1e6(self):
+        return median_ratio(lambda: adt(self.large), lambda: adt(self.small), repeats=3)
+
+    track_time_ratio_1e7_over_1e6.unit = "x"

@@ -53,9 +53,11 @@ class NURBSPaperSizes:
 
 
 class NURBSScale:
-    params = [[1_000, 10_000, 100_000]]
+    """fit_nurbs(fast) from 1e3 to 1e6 points (issue 15 item 4: the 1e6 hot spot)."""
+
+    params = [[1_000, 10_000, 100_000, 1_000_000]]
     param_names = ["n"]
-    timeout = 300
+    timeout = 600
 
     def setup(self, n):
         self.points = cloud(n)
@@ -100,3 +102,39 @@ class Evaluator:
         return best(self.time_geomdl_50x50) / best(self.time_fast_50x50)
 
     track_speedup_fast_over_geomdl.unit = "x"
+
+
+class NURBSOverADT:
+    """fit_nurbs(fast) time over adt() time at 1e6 points, timed alternately (issue 14: <= 1.5)."""
+
+    timeout = 600
+
+    def setup(self):
+        from .benchmark_adt import median_ratio
+
+        self.median_ratio = median_ratio
+        self.points = cloud(1_000_000)
+        fit_nurbs(self.points, evaluator="fast")
+
+    def track_nurbs_fast_over_adt(self):
+        return self.median_ratio(lambda: fit_nurbs(self.points, evaluator="fast"), lambda: adt(self.points))
+
+    track_nurbs_fast_over_adt.unit = "x"
+
+
+class CompareScale:
+    """compare(): both surfaces, both pairings and the statistics, at scale (issue 15 item 4)."""
+
+    params = [[10_000, 100_000]]
+    param_names = ["n"]
+    timeout = 600
+
+    def setup(self, n):
+        from replication.compare import compare
+
+        self.compare = compare
+        self.points = cloud(n)
+        compare(cloud(200))
+
+    def time_compare(self, n):
+        self.compare(self.points)

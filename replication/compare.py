@@ -88,7 +88,11 @@ def pair_at_nurbs_samples(
     points = evaluate(nurbs.patch, parameter_grid(shape))
     positions = points[:, list(nurbs.projection_axes)]
     adt_depth = interpolate_linear(
-        surface.projected(), surface.triangles, surface.points[:, surface.depth_axis], positions
+        surface.projected(),
+        surface.triangles,
+        surface.points[:, surface.depth_axis],
+        positions,
+        neighbors=surface.neighbors,  # the triangulator's adjacency: no edge sort
     )
     inside = ~np.isnan(adt_depth)
     return PairedDepths(

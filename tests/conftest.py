@@ -23,6 +23,15 @@ settings.load_profile("ci" if os.environ.get("CI") else os.environ.get("HYPOTHES
 import pytest  # noqa: E402
 
 
+def pytest_collection_finish(session):
+    """Compile (or load from numba's cache) every compiled kernel once, before the first test,
+    so that in a fresh clone no single test carries the compilation (issue 15 item 5)."""
+    if not session.config.option.collectonly and session.items:
+        from replication.kernels import warm_up
+
+        warm_up()
+
+
 @pytest.fixture(scope="session")
 def quick_reports(tmp_path_factory):
     """``replication reproduce --quick`` once per session, run from a scratch directory.
@@ -48,6 +57,30 @@ def quick_reports(tmp_path_factory):
     finally:
         os.chdir(previous)
     return out
+
+
+@pytest.fixture
+def port_8787_taken():
+    """Port 8787, dask's default dashboard port, is in use while the test runs.
+
+    Binds it when it is free; when another program has it already, that is just as good.
+    Tests that start dask clusters use this, so a cluster that tries the fixed port fails
+    here as it would next to another program's dashboard.
+    """
+    import socket
+
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    try:
+        sock.bind(("", 8787))
+        sock.listen()
+    except OSError:
+        sock.close()
+        sock = None
+    try:
+        yield 8787
+    finally:
+        if sock is not None:
+            sock.close()
 
 
 @pytest.fixture

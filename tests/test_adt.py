@@ -239,3 +239,22 @@ def test_property_invariants(cloud, rule):
     np.maximum.at(hi, s.vertex_of_input, depth)
     assert np.all((vd >= lo[s.vertex_of_input] - 1e-9) & (vd <= hi[s.vertex_of_input] + 1e-9))
     assert_valid_delaunay(s.projected(), s.triangles)
+
+
+def test_spreads_of_a_large_cloud_are_exact_enough_and_thread_independent():
+    import numba
+
+    from replication.surfaces._spread import column_spreads
+
+    cloud = np.random.default_rng(3).normal(5.0, [1.0, 2.0, 3.0], size=(300_000, 3))
+    threads = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        serial, finite = column_spreads(cloud)
+        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+        parallel, _ = column_spreads(cloud)
+    finally:
+        numba.set_num_threads(threads)
+    assert finite and np.array_equal(serial, parallel)
+    np.testing.assert_allclose(serial, np.std(cloud, axis=0), rtol=1e-12)
+    assert not column_spreads(np.where(np.arange(300_000)[:, None] == 7, np.nan, cloud))[1]

@@ -34,6 +34,9 @@ def asv_results(tmp_path_factory):
     config.write_text(json.dumps(conf))
     # benchmark_dir and repo are relative to the config file: point them at the project
     conf.update(repo=str(ROOT), benchmark_dir=str(ROOT / "benchmarks"))
+    # asv resolves its configured branches even with --python=same (where no range may be
+    # given): a clone need not have a branch named main, or any branch (a detached HEAD)
+    conf.update(branches=["HEAD"])
     config.write_text(json.dumps(conf))
     head = subprocess.run(
         ["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=True
@@ -73,3 +76,6 @@ def test_performance_report_from_asv_results(asv_results, tmp_path, capsys):
     assert "### `benchmark_adt.ADTPaperSizes.time_adt`" in text
     assert "n=200, backend=sweephull" in text
     assert "### `benchmark_adt.ADTPaperSizes.track_adt_vtk_bytes`" in text and " B |" in text
+    # a --quick run is one sample per benchmark: kept apart from measurements, and marked
+    quick = text.split("## Single-sample runs (`asv run --quick`) on machine `pytest-machine`", 1)[1]
+    assert "(1 sample)" in quick and "No measured commits." in text

@@ -1,5 +1,8 @@
-"""Both triangulation backends give valid Delaunay triangulations of the same vertices."""
+"""Both triangulation backends give exactly valid Delaunay triangulations of the same vertices."""
 
+from fractions import Fraction
+
+import numba
 import numpy as np
 import pytest
 from hypothesis import given
@@ -7,10 +10,12 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.spatial import Delaunay
 
-from geometry import assert_valid_delaunay
+from geometry import assert_valid_delaunay, orient_q
 from replication.errors import DegenerateInputError, InputError
-from replication.surfaces import _sweephull, delaunay
-from replication.surfaces.delaunay import delaunay_2d
+from replication.surfaces import _partition, _sweephull, _triangulate, delaunay
+from replication.surfaces.delaunay import delaunay_2d, planar_delaunay
+from replication.surfaces.duplicates import group_positions, groups_from_pairs
+from replication.surfaces.interpolate import triangle_neighbors
 
 
 def _unique(uv):
@@ -64,6 +69,23 @@ def test_collinear_hull_points_and_clusters():
     assert_valid_delaunay(uv, triangles)
 
 
+def test_lattice_point_rounded_inside_the_hull_is_not_a_degenerate_triangle():
+    """Regression (issue 12 item 9, issue 15 item 5): (7,3), (3,3), (9,5), (4,0) x 1e-3.
+
+    Rounded to float64, (7,3) x 1e-3 lies strictly inside the triangle of the other three
+    (exact rational arithmetic on the float values), so the Delaunay triangulation has three
+    triangles; the third has a floating-point area of about 1e-21, not zero. Qhull, which
+    rounds, reports two triangles, leaving part of the exact hull uncovered.
+    """
+    uv = np.array([[7, 3], [3, 3], [9, 5], [4, 0]], dtype=float) * 1e-3
+    p, a, b, c = (tuple(map(Fraction, q)) for q in uv.tolist())
+    assert orient_q(a, b, c) < 0  # the hull (3,3), (9,5), (4,0) is clockwise in that order
+    assert orient_q(a, b, p) < 0 and orient_q(b, c, p) < 0 and orient_q(c, a, p) < 0  # strictly inside
+    triangles, used = delaunay_2d(uv)
+    assert used == "sweephull" and len(triangles) == 3
+    assert_valid_delaunay(uv, triangles, exact="fraction")
+
+
 lattice_points = arrays(np.int64, st.tuples(st.integers(3, 80), st.just(2)), elements=st.integers(0, 9))
 
 
@@ -74,12 +96,30 @@ def test_property_lattice_clouds(points, scale):
         with pytest.raises(DegenerateInputError):
             delaunay_2d(uv)
         return
-    triangles, used = delaunay_2d(uv)
-    assert used == "sweephull"
-    assert_valid_delaunay(uv, triangles)
-    # the same vertices and the same covered area as Qhull
-    ref, _ = delaunay_2d(uv, backend="scipy")
-    assert len(ref) == len(triangles)
+    for backend in ("sweephull", "scipy"):
+        triangles, used = delaunay_2d(uv, backend=backend)
+        assert used == backend
+        assert np.array_equal(np.unique(triangles), np.arange(uv.shape[0]))  # same vertices: all
+        if backend == "sweephull":
+            assert_valid_delaunay(uv, triangles, exact="fraction")
+
+
+def test_thousands_of_random_lattice_clouds():
+    """3000 random lattice clouds (fixed seed), every one an exactly valid Delaunay triangulation."""
+    rng = np.random.default_rng(20240915)
+    checked = 0
+    for _ in range(3000):
+        n = int(rng.integers(3, 81))
+        side = int(rng.choice([3, 5, 10, 40]))
+        scale = float(rng.choice([1.0, 0.1, 1e-3, 37.5]))
+        uv = _unique(rng.integers(0, side, size=(n, 2)).astype(float) * scale)
+        if uv.shape[0] < 3 or np.linalg.matrix_rank(uv - uv[0]) < 2:
+            continue
+        triangles, used = delaunay_2d(uv)
+        assert used == "sweephull"
+        assert_valid_delaunay(uv, triangles, exact="compiled")
+        checked += 1
+    assert checked > 2500
 
 
 # six decimals: clouds whose points are at least 1e-9 of their extent apart; closer points are
@@ -93,7 +133,84 @@ def test_property_float_clouds(points):
     if uv.shape[0] < 3 or np.linalg.matrix_rank(uv - uv[0], tol=1e-9 * np.abs(uv).max()) < 2:
         return  # (nearly) collinear clouds are covered by dedicated tests
     triangles, _ = delaunay_2d(uv)
-    assert_valid_delaunay(uv, triangles)
+    assert_valid_delaunay(uv, triangles, exact="fraction")
+
+
+@given(arrays(np.int64, st.tuples(st.integers(3, 120), st.just(2)), elements=st.integers(0, 6)))
+def test_duplicates_from_the_sort_match_the_hash(points):
+    """The sweep's duplicate pairs give exactly the groups of the hash table (first occurrence)."""
+    uv = points.astype(float) * 0.1
+    if np.unique(uv, axis=0).shape[0] < 3 or np.linalg.matrix_rank(uv - uv[0]) < 2:
+        return
+    result, used = planar_delaunay(uv)
+    assert used == "sweephull"
+    group, first = groups_from_pairs(uv.shape[0], result.duplicates, result.representatives)
+    ref_group, ref_first = group_positions(uv[:, 0], uv[:, 1])
+    assert np.array_equal(group, ref_group) and np.array_equal(first, ref_first)
+    assert set(np.unique(result.triangles).tolist()) == set(ref_first.tolist())
+
+
+@pytest.mark.parametrize("backend", ["sweephull", "scipy"])
+def test_neighbors_and_hull_are_those_of_the_triangles(backend):
+    uv = np.random.default_rng(5).random((300, 2))
+    result, used = planar_delaunay(uv, backend=backend)
+    assert used == backend
+    assert np.array_equal(result.neighbors, triangle_neighbors(result.triangles))
+    hull = delaunay.hull_from_neighbors(result.triangles, result.neighbors)
+    start = int(np.flatnonzero(result.hull == hull[0])[0])
+    assert np.array_equal(np.roll(result.hull, -start), hull)
+
+
+def _two_block_clouds():
+    rng = np.random.default_rng(11)
+    random = rng.random((30_000, 2)) * [36.0, 30.0]
+    g = np.stack(np.meshgrid(np.arange(180.0), np.arange(150.0)), -1).reshape(-1, 2)
+    lattice = np.vstack([g, g[rng.integers(0, len(g), 3000)]])  # with duplicates
+    rings = np.arange(1, 60) * 0.5
+    angles = np.arange(500) * (2 * np.pi / 500)
+    circles = np.concatenate([np.column_stack([r * np.cos(angles), r * np.sin(angles)]) for r in rings])
+    cocircular = np.vstack([circles, [[0.0, 0.0]]])
+    columns = np.column_stack([np.repeat(np.arange(3.0), 8000), np.tile(np.arange(8000.0), 3)])
+    return {"random": random, "lattice": lattice, "co-circular": cocircular, "three columns": columns}
+
+
+@pytest.fixture(scope="module")
+def two_block_clouds():
+    return _two_block_clouds()
+
+
+@pytest.mark.parametrize("name", ["random", "lattice", "co-circular", "three columns"])
+def test_two_blocks_are_exact_and_independent_of_the_thread_count(two_block_clouds, name):
+    uv = two_block_clouds[name]
+    assert uv.shape[0] >= _partition.PARALLEL_MIN
+    threads = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        serial = _triangulate.triangulate(uv)
+        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+        parallel = _triangulate.triangulate(uv)
+    finally:
+        numba.set_num_threads(threads)
+    assert serial.status == _sweephull.STATUS_OK
+    for field in ("triangles", "neighbors", "hull", "duplicates", "representatives"):
+        assert np.array_equal(getattr(serial, field), getattr(parallel, field)), field
+    distinct = np.unique(serial.triangles)
+    assert distinct.size == np.unique(uv, axis=0).shape[0]  # the same vertex set as scipy: all
+    local = np.searchsorted(distinct, serial.triangles)
+    assert_valid_delaunay(uv[distinct], local, exact="compiled")
+    assert np.array_equal(serial.neighbors, triangle_neighbors(serial.triangles))
+    assert (serial.blocks == 1) == (name == "three columns")  # a collinear block: one block
+    if name == "random":  # general position: the unique Delaunay triangulation, as Qhull's
+        assert _triangle_set(serial.triangles) == _triangle_set(Delaunay(uv).simplices)
+
+
+def test_one_and_two_blocks_agree_in_general_position(two_block_clouds):
+    uv = two_block_clouds["random"]
+    one = _triangulate.triangulate(uv, blocks=1)
+    for blocks in (2, 4, 8):
+        many = _triangulate.triangulate(uv, blocks=blocks)
+        assert (one.blocks, many.blocks) == (1, blocks)
+        assert _triangle_set(one.triangles) == _triangle_set(many.triangles)
 
 
 @pytest.mark.parametrize("backend", ["sweephull", "scipy"])
@@ -108,6 +225,11 @@ def test_too_few_points_raise():
         delaunay_2d(np.array([[0.0, 0.0], [1.0, 1.0]]))
 
 
+def test_repeated_points_raise():
+    with pytest.raises(DegenerateInputError, match=r"repeat another point \(points 3\)"):
+        delaunay_2d(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 0.0]]))
+
+
 def test_unknown_backend():
     with pytest.raises(InputError, match="'qhull'"):
         delaunay_2d(np.eye(3)[:, :2], backend="qhull")
@@ -116,14 +238,30 @@ def test_unknown_backend():
 def test_sweep_failure_falls_back_to_qhull(monkeypatch):
     """If rounding ever defeats the sweep, Qhull triangulates and the result says so."""
 
-    def failing(x, y):
-        return np.empty((0, 3), dtype=np.int64), _sweephull.STATUS_SKIPPED, 1
+    def failing(points, axes):
+        return _triangulate._failed(np.int32, _sweephull.STATUS_SKIPPED, 1)
 
-    monkeypatch.setattr(delaunay._sweephull, "sweep_hull", failing)
+    monkeypatch.setattr(_triangulate, "triangulate", failing)
     uv = np.random.default_rng(0).random((30, 2))
     triangles, used = delaunay_2d(uv)
     assert used == "scipy"
     assert_valid_delaunay(uv, triangles)
+
+
+def test_a_failed_block_is_retried_as_one_block(monkeypatch):
+    calls = []
+    original = _triangulate._triangulate
+
+    def first_fails(points, axes, levels):
+        calls.append(levels)
+        if levels:
+            return _triangulate._failed(np.int32, _sweephull.STATUS_SKIPPED, 1 << levels)
+        return original(points, axes, levels)
+
+    monkeypatch.setattr(_triangulate, "_triangulate", first_fails)
+    uv = np.random.default_rng(1).random((_partition.PARALLEL_MIN, 2))
+    result = _triangulate.triangulate(uv)
+    assert calls == [1, 0] and result.status == _sweephull.STATUS_OK and result.blocks == 1
 
 
 def test_unused_point_is_an_error_not_silent(monkeypatch):
@@ -141,16 +279,13 @@ def test_extreme_dynamic_range_is_exact_not_a_crash():
     uv = np.array([[2.0, 1.0], [1.2e-238, 0.0], [1.0, 0.0], [0.0, 0.0]])
     triangles, used = delaunay_2d(uv)
     assert used == "sweephull"
-    assert_valid_delaunay(uv, triangles)
+    assert_valid_delaunay(uv, triangles, exact="fraction")
 
 
-def test_exact_orientation_predicate():
-    # collinear to the last bit: the float formula may round either way, the exact one must not
-    a, b = (0.1, 0.1), (0.3, 0.3)
-    c = (0.7, 0.7)
-    assert _sweephull.orient(*a, *b, *c) == 0.0
-    assert _sweephull.orient(0.0, 0.0, 1.0, 0.0, 0.5, 1e-300) == 1.0
-    assert _sweephull.orient(0.0, 0.0, 1.0, 0.0, 0.5, -1e-300) == -1.0
-    eps = np.nextafter(0.5, 1.0)
-    assert _sweephull.orient(0.5, 0.5, 12.0, 12.0, eps, 0.5) == -1.0
-    assert _sweephull.orient(0.5, 0.5, 12.0, 12.0, 24.0, 24.0) == 0.0
+def test_the_one_call_path_for_small_clouds_matches_the_general_one():
+    rng = np.random.default_rng(4)
+    for uv in (rng.random((500, 2)), np.vstack([np.indices((12, 9)).reshape(2, -1).T * 0.1] * 2)):
+        small = _triangulate.triangulate(uv)
+        general = _triangulate._triangulate(uv, (0, 1), 0)
+        for field in ("triangles", "neighbors", "hull", "duplicates", "representatives", "status"):
+            assert np.array_equal(getattr(small, field), getattr(general, field)), field

@@ -266,7 +266,7 @@ class DiesOnceWhenArmed:
 
 
 @pytest.fixture
-def dask_pickling():
+def dask_pickling(port_8787_taken):  # clusters must start beside another program's dashboard
     pytest.importorskip("dask.distributed")
     import sys
 

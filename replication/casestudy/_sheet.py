@@ -28,7 +28,7 @@ from numba import njit
 
 from replication.surfaces._sweephull import orient
 
-__all__ = ["BOUNDARY", "SYMMETRY", "first_overlap", "orientations", "trace"]
+__all__ = ["BOUNDARY", "SYMMETRY", "first_overlap", "orientations", "prepare", "trace"]
 
 BOUNDARY = -1
 SYMMETRY = -2
@@ -43,20 +43,19 @@ TALLY_MASS_HIT, TALLY_MASS_OUT, TALLY_MASS_TRAPPED, TALLY_PARCELS, TALLY_STREAML
 
 
 @njit(cache=True, inline="always")
-def _exit_edge(x, y, tri, t, px, py, dx, dy):
+def _exit_edge(edges, t, px, py, dx, dy):
     """Edge ``k`` of triangle ``t`` through which the ray ``p + s d`` leaves, and ``s >= 0``."""
     best_k = -1
     best_s = np.inf
+    scale = abs(dx) + abs(dy)
     for k in range(3):
-        a = tri[t, k]
-        b = tri[t, (k + 1) % 3]
-        ex = x[b] - x[a]
-        ey = y[b] - y[a]
+        ax = edges[t, k, 0]
+        ay = edges[t, k, 1]
+        ex = edges[t, k, 2]
+        ey = edges[t, k, 3]
         den = ex * dy - ey * dx
-        # the ray moves to the right of a -> b, out of the triangle (a ray along the edge,
-        # within rounding, stays: a sheet sliding along a valley line follows it)
-        if den < -1e-12 * (abs(ex) + abs(ey)) * (abs(dx) + abs(dy)):
-            g = ex * (py - y[a]) - ey * (px - x[a])
+        if den < edges[t, k, 4] * scale:
+            g = ex * (py - ay) - ey * (px - ax)
             s = max(g, 0.0) / -den
             if s < best_s:
                 best_s = s
@@ -125,13 +124,13 @@ def _vertex_at(x, y, tri, t, k, px, py, tol):
     return -1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _follow(mesh, half, convex, zmax, eps, max_steps, min_split, stack, stack_t, top, force, out, tally):
     """Follow the parcel ``stack[top]`` until it leaves; return the new stack size.
 
     The parcel is popped; the backward streams it splits off are pushed in its place.
     """
-    x, y, z, tri, nbr, nrm, slope, bnd = mesh
+    x, y, z, tri, nbr, nrm, slope, bnd, edges = mesh
     px, py, pz, vx, vy, vz, m, root = stack[top]
     t = stack_t[top]
     free = top  # the parcel's slot, free for a split-off stream
@@ -140,7 +139,7 @@ def _follow(mesh, half, convex, zmax, eps, max_steps, min_split, stack, stack_t,
     mirrored = False
     for _ in range(max_steps):
         if state == _SURFACE:
-            k, s = _exit_edge(x, y, tri, t, px, py, vx, vy)
+            k, s = _exit_edge(edges, t, px, py, vx, vy)
             if k < 0:  # at rest
                 break
             px += s * vx
@@ -201,7 +200,7 @@ def _follow(mesh, half, convex, zmax, eps, max_steps, min_split, stack, stack_t,
                 pz = _height(x, y, z, tri, slope, t, px, py)
                 state = _SURFACE
                 continue
-            k, s = _exit_edge(x, y, tri, t, px, py, vx, vy)
+            k, s = _exit_edge(edges, t, px, py, vx, vy)
             # a strike inside this facet; reaching the surface exactly on the far edge hands the
             # decision to the next facet (grazing a ridge is no impact)
             if rate < 0.0 and (gap <= eps or k < 0 or gap + rate * s < -eps):
@@ -362,10 +361,12 @@ def trace(mesh, half, convex, sx, sy, smass, start, speed, n_dir, min_split, max
     Parameters
     ----------
     mesh : tuple
-        ``(x, y, z, tri, nbr, nrm, slope, bnd)``: vertex coordinates (m); counter-clockwise
-        triangles; the neighbour across edge k (from ``tri[t, k]`` to ``tri[t, k + 1]``) or
-        BOUNDARY/SYMMETRY; unit facet normals (n_z > 0); dz/dx and dz/dy of each facet;
-        (triangle, edge) of every BOUNDARY edge.
+        ``(x, y, z, tri, nbr, nrm, slope, bnd, edges)``: vertex coordinates (m);
+        counter-clockwise triangles; the neighbour across edge k (from ``tri[t, k]`` to
+        ``tri[t, k + 1]``) or BOUNDARY/SYMMETRY; unit facet normals (n_z > 0); dz/dx and
+        dz/dy of each facet; (triangle, edge) of every BOUNDARY edge; for each edge k of
+        each triangle its start (x, y), its vector and its parallelism threshold (see
+        :func:`prepare`, which builds the tuple).
     half, convex : bool
         Half jet with the symmetry plane y = 0; convex footprint.
     sx, sy, smass : float64 arrays
@@ -424,6 +425,87 @@ def trace(mesh, half, convex, sx, sy, smass, start, speed, n_dir, min_split, max
             top = _follow(mesh, half, convex, zmax, eps, max_steps, min_split, stack, stack_t, top,
                           force, out, tally) - 1  # fmt: skip
     return force, out, tally
+
+
+@njit(cache=True, error_model="numpy")
+def prepare(points, tri, raw, half):
+    """The mesh tuple of :func:`trace` from vertices (m), CCW triangles and their neighbours.
+
+    With the half jet, vertices within 1e-9 of the largest extent from y = 0 are put on the
+    symmetry plane, and boundary edges lying on it become ``SYMMETRY``. The per-edge table
+    holds exactly the values the tracer would compute at every step (same operations), so
+    results do not change. Returns the mesh and the (possibly moved) vertices.
+    """
+    n = points.shape[0]
+    m = tri.shape[0]
+    span = 0.0
+    for c in range(3):
+        lo = points[0, c]
+        hi = points[0, c]
+        for i in range(n):
+            lo = min(lo, points[i, c])
+            hi = max(hi, points[i, c])
+        span = max(span, hi - lo)
+    if span == 0.0:
+        span = 1.0
+    x = np.empty(n)
+    y = np.empty(n)
+    z = np.empty(n)
+    for i in range(n):
+        x[i] = points[i, 0]
+        y[i] = points[i, 1]
+        z[i] = points[i, 2]
+        if half and abs(y[i]) <= 1e-9 * span:
+            y[i] = 0.0
+    normal = np.empty((m, 3))
+    slope = np.empty((m, 2))
+    nbr = np.empty((m, 3), dtype=np.int64)
+    n_bnd = 0
+    for t in range(m):
+        a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
+        ux, uy, uz = x[b] - x[a], y[b] - y[a], z[b] - z[a]
+        vx, vy, vz = x[c] - x[a], y[c] - y[a], z[c] - z[a]
+        nx = uy * vz - uz * vy
+        ny = uz * vx - ux * vz
+        nz = ux * vy - uy * vx
+        length = math.sqrt(nx * nx + ny * ny + nz * nz)
+        normal[t, 0] = nx / length
+        normal[t, 1] = ny / length
+        normal[t, 2] = nz / length
+        slope[t, 0] = -normal[t, 0] / normal[t, 2]
+        slope[t, 1] = -normal[t, 1] / normal[t, 2]
+        for k in range(3):
+            nb = raw[t, k]
+            if nb < 0 and half and y[tri[t, k]] == 0.0 and y[tri[t, (k + 1) % 3]] == 0.0:
+                nb = SYMMETRY
+            nbr[t, k] = nb
+            n_bnd += nb == BOUNDARY
+    bnd = np.empty((n_bnd, 2), dtype=np.int64)
+    j = 0
+    for t in range(m):
+        for k in range(3):
+            if nbr[t, k] == BOUNDARY:
+                bnd[j, 0] = t
+                bnd[j, 1] = k
+                j += 1
+    moved = np.empty((n, 3))
+    for i in range(n):
+        moved[i, 0] = x[i]
+        moved[i, 1] = y[i]
+        moved[i, 2] = z[i]
+    edges = np.empty((m, 3, 5))
+    for t in range(m):
+        for k in range(3):
+            a = tri[t, k]
+            b = tri[t, (k + 1) % 3]
+            ex = x[b] - x[a]
+            ey = y[b] - y[a]
+            edges[t, k, 0] = x[a]
+            edges[t, k, 1] = y[a]
+            edges[t, k, 2] = ex
+            edges[t, k, 3] = ey
+            edges[t, k, 4] = -1e-12 * (abs(ex) + abs(ey))
+    return (x, y, z, tri, nbr, normal, slope, bnd, edges), moved
 
 
 @njit(cache=True)

@@ -84,7 +84,13 @@ def dask_executor(scheduler: str | None, workers: int) -> Iterator[cf.Executor]:
     else:
         with sigint_ignored_by_children():  # the worker processes started now inherit it
             cluster = LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+                n_workers=workers,
+                threads_per_worker=1,
+                processes=True,
+                # no dashboard, and the scheduler's HTTP server on a free port: with
+                # dashboard_address=None it still binds the fixed port 8787
+                dashboard_address="127.0.0.1:0",
+                scheduler_kwargs={"dashboard": False},
             )
         with _log_levels_restored(), cluster, Client(cluster) as client:
             yield from _dask_executor(client)
@@ -112,6 +118,9 @@ def _dask_executor(client) -> Iterator[cf.Executor]:  # type: ignore[no-untyped-
     that cannot be gathered) is not shown: nobody waits for those results any more. The
     levels are restored by :func:`_log_levels_restored` once everything is closed.
     """
+    from replication.casestudy.daskplugin import register as one_blas_thread
+
+    one_blas_thread(client)
     pool = client.get_executor(pure=False)
     try:
         yield pool

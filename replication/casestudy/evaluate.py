@@ -170,6 +170,18 @@ def check_executor_options(kind: str, workers: int | None = None, scheduler: str
         check_scheduler_address(scheduler)
 
 
+def worker_initializer() -> None:
+    """Process-pool initializer: workers ignore SIGINT and run with one BLAS thread.
+
+    The parent decides when to stop (see :mod:`.interrupts`); the GA's parallelism is one
+    evaluation per worker, so BLAS threads would only compete (see :mod:`replication.threadlimits`).
+    """
+    from replication.threadlimits import limit_worker_blas
+
+    ignore_interrupts()
+    limit_worker_blas()
+
+
 @contextlib.contextmanager
 def executor(
     kind: str = "auto", *, workers: int | None = None, scheduler: str | None = None
@@ -209,7 +221,7 @@ def executor(
         yield SerialExecutor()
     elif kind == "process":
         pool = cf.ProcessPoolExecutor(
-            max_workers=n, mp_context=quiet_spawn_context(), initializer=ignore_interrupts
+            max_workers=n, mp_context=quiet_spawn_context(), initializer=worker_initializer
         )
         try:
             yield pool

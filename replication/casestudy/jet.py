@@ -190,32 +190,24 @@ def jet_streamlets(config: JetConfig, resolution: int = DEFAULT_RESOLUTION) -> t
 
 
 def _trace(
-    points: np.ndarray, triangles: np.ndarray, convex: bool, config: JetConfig, resolution: int
+    points: np.ndarray,
+    triangles: np.ndarray,
+    convex: bool,
+    config: JetConfig,
+    resolution: int,
+    neighbors: np.ndarray | None = None,
 ) -> JetForce:
-    """Run the compiled model on a validated mesh (metres, CCW triangles)."""
+    """Run the compiled model on a validated mesh (metres, CCW triangles; their neighbours,
+    if known, e.g. an ADT surface's own adjacency)."""
     half = not config.full_jet
-    span = float(np.ptp(points, axis=0).max()) or 1.0
-    if half:  # vertices within rounding of the symmetry plane lie on it
-        points = points.copy()
-        points[np.abs(points[:, 1]) <= 1e-9 * span, 1] = 0.0
-    x, y, z = (np.ascontiguousarray(points[:, k]) for k in range(3))
-    raw = triangle_neighbors(triangles)
-    nbr = raw
-    a, b, c = (points[triangles[:, k]] for k in range(3))
-    normal = np.cross(b - a, c - a)
-    normal /= np.linalg.norm(normal, axis=1)[:, None]
-    slope = np.ascontiguousarray(-normal[:, :2] / normal[:, 2:3])
-    boundary = raw < 0
-    if half:
-        on_plane = (y[triangles] == 0.0) & (y[np.roll(triangles, -1, axis=1)] == 0.0)
-        nbr = np.where(boundary & on_plane, _sheet.SYMMETRY, nbr)
-    bnd = np.argwhere(nbr == _sheet.BOUNDARY).astype(np.int64)
+    triangles = np.ascontiguousarray(triangles, dtype=np.int64)
+    raw = triangle_neighbors(triangles) if neighbors is None else neighbors
+    mesh, points = _sheet.prepare(points, triangles, np.ascontiguousarray(raw, dtype=np.int64), half)
     xy, mass = jet_streamlets(config, resolution)
     start = locate(points[:, :2], triangles, xy, raw, convex=convex)
     max_steps = MAX_STEPS_PER_TRIANGLE * triangles.shape[0] + 64
     sx, sy = np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1])
-    mesh = (x, y, z, triangles, nbr, normal, slope, bnd)
-    jet = (sx, sy, mass, start, config.velocity, 4 * resolution)
+    jet = (sx, sy, mass, start.astype(np.int64), config.velocity, 4 * resolution)
     force, out, tally = _sheet.trace(mesh, half, convex, *jet, MIN_SPLIT_FRACTION, max_steps)
     if not (np.all(np.isfinite(force)) and np.all(np.isfinite(out))):  # a safety net, never seen
         raise DegenerateInputError("the jet force is not finite: the surface has degenerate facets")
@@ -322,4 +314,4 @@ def surface_force(
     if not np.all(np.isfinite(pts)):
         raise InputError("surface points must be finite")
     check_domain(pts, config)
-    return _trace(pts, np.array(surface.triangles, dtype=np.int64), True, config, resolution)
+    return _trace(pts, surface.triangles, True, config, resolution, surface.neighbors)

@@ -1,94 +1,40 @@
-"""``reports/performance.md``: the asv benchmark history as markdown tables.
+"""``reports/performance.md``: the asv benchmark history with its spread, and one comparison.
 
-asv keeps one JSON file per (machine, commit, environment) under its results directory
-(``.asv/results`` here) and a ``benchmarks.json`` describing every benchmark (units,
-parameters). This module reads those files directly and renders, for each benchmark and
-parameter combination, the value at each of the most recent commits, so the trend is
-readable without a browser.
+Every number is read from asv's result files (:mod:`replication.report.asv_results`) or
+computed from them; nothing is typed. Choices, so that the page cannot fool its reader:
+
+* **Spread next to every timing.** A cell reads ``1.23 ms ±4 %``: asv's median of its
+  samples, and half the interquartile range of the samples relative to the median (asv's
+  own "±"). The column head gives the number of samples behind each value.
+* **Single-sample timings are separated.** ``asv run --quick`` measures each benchmark
+  once, without warm-up: such a commit is not put beside measured ones (where its values
+  would read as changes) but in its own section; a single-sample value inside a measured
+  commit is marked "(1 sample)".
+* **One comparison, with asv's significance rule** (:mod:`replication.report.asv_compare`):
+  the two most recent measured commits of each machine (or the pair asked for), every
+  value with ratio, verdict and the test that decided it.
 """
 
 from __future__ import annotations
 
-import datetime as dt
-import itertools
-import json
+import math
 import os
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import pandas as pd
 
-from replication.errors import CloudFileError
 from replication.io.atomic import atomic_write_text
+from replication.report.asv_compare import P_THRESHOLD, VERDICTS, verdict
+from replication.report.asv_results import load_asv_results, single_sample
 from replication.report.markdown import table
 
-__all__ = ["load_asv_results", "render_performance"]
+__all__ = ["FACTOR", "format_cell", "load_asv_results", "render_performance"]
+
+#: Ratio within which a comparison calls two values the same (asv's default ``--factor``).
+FACTOR = 1.1
 
 
-@dataclass(frozen=True)
-class _Benchmark:
-    unit: str
-    param_names: list[str]
-    params: list[list[str]]
-
-
-def _benchmarks(results_dir: Path) -> dict[str, _Benchmark]:
-    path = results_dir / "benchmarks.json"
-    if not path.is_file():
-        raise CloudFileError(f"no asv results in {results_dir} (run `asv run` first; see the README)")
-    info = json.loads(path.read_text())
-    return {
-        name: _Benchmark(b.get("unit", ""), b.get("param_names", []), b.get("params", []))
-        for name, b in info.items()
-        if isinstance(b, dict) and "unit" in b
-    }
-
-
-def load_asv_results(results_dir: str | os.PathLike[str]) -> pd.DataFrame:
-    """Every benchmark value recorded by asv, long form.
-
-    Columns: machine, commit, date, benchmark, params, value, unit.
-    """
-    results_dir = Path(results_dir)
-    benchmarks = _benchmarks(results_dir)
-    rows = []
-    for machine_dir in sorted(p for p in results_dir.iterdir() if p.is_dir()):
-        for path in sorted(machine_dir.glob("*.json")):
-            if path.name == "machine.json":
-                continue
-            data = json.loads(path.read_text())
-            columns = data.get("result_columns", ["result", "params"])
-            when = dt.datetime.fromtimestamp(data.get("date", 0) / 1000, dt.UTC)
-            for name, record in data.get("results", {}).items():
-                if name not in benchmarks:
-                    continue
-                entry = dict(zip(columns, record))
-                values = entry.get("result") or []
-                params = entry.get("params") or benchmarks[name].params
-                combos = list(itertools.product(*params)) if params else [()]
-                for combo, value in zip(combos, values):
-                    rows.append(
-                        {
-                            "machine": machine_dir.name,
-                            "commit": data.get("commit_hash", "")[:8],
-                            "date": when,
-                            "benchmark": name,
-                            "params": ", ".join(  # asv stores parameter values as reprs
-                                f"{k}={str(v).strip(chr(39))}"
-                                for k, v in zip(benchmarks[name].param_names, combo)
-                            ),
-                            "value": value,
-                            "unit": benchmarks[name].unit,
-                        }
-                    )
-    return pd.DataFrame(rows, columns=["machine", "commit", "date", "benchmark", "params", "value", "unit"])
-
-
-def _format(value: Any, unit: str) -> str:
-    if value is None or (isinstance(value, float) and value != value):
-        return "failed" if value is None else "–"
-    value = float(value)
+def _format(value: float, unit: str) -> str:
     if unit == "seconds":
         for scale, suffix in ((1.0, "s"), (1e-3, "ms"), (1e-6, "µs")):
             if value >= scale:
@@ -99,41 +45,214 @@ def _format(value: Any, unit: str) -> str:
             if value >= scale:
                 return f"{value / scale:.3g} {suffix}"
         return f"{value:,.0f} B"
+    if value == int(value) and abs(value) < 1e15:
+        return f"{value:,.0f} {unit}".strip()
     return f"{value:.3g} {unit}".strip()
 
 
+def spread_percent(row: pd.Series | dict) -> float:
+    """Half the interquartile range of a timing's samples, in % of its median (NaN if unknown)."""
+    q25, q75, value = row["q_25"], row["q_75"], row["value"]
+    if any(not math.isfinite(x) for x in (q25, q75, value)) or value <= 0:
+        return math.nan
+    return 100 * (q75 - q25) / 2 / value
+
+
+def format_cell(row: pd.Series | dict) -> str:
+    """One value as the page shows it: ``1.23 ms ±4 %``, ``(1 sample)``, ``failed``, ``n/a``."""
+    if row["status"] != "ok":
+        return "failed" if row["status"] == "failed" else "n/a"
+    text = _format(float(row["value"]), row["unit"])
+    if row["kind"] != "time":
+        return text  # memory and tracked values: one measurement by design
+    if row["repeat"] == 1:
+        return f"{text} (1 sample)"
+    spread = spread_percent(row)
+    if spread != spread:
+        return f"{text} (no spread recorded)"
+    return f"{text} ±{spread:.1f} %" if spread < 0.95 else f"{text} ±{spread:.0f} %"
+
+
+def _samples_note(group: pd.DataFrame) -> str:
+    counts = group.loc[(group["kind"] == "time") & (group["status"] == "ok"), "repeat"].dropna()
+    if counts.empty:
+        return ""
+    low, high = int(counts.min()), int(counts.max())
+    return f", n={low}" if low == high else f", n={low}–{high}"
+
+
+def _commits(frame: pd.DataFrame) -> pd.DataFrame:
+    """One row per commit, oldest first (commit date, then when it was measured)."""
+    first = frame.groupby("commit", sort=False).agg(date=("date", "first"), started=("started_at", "min"))
+    return first.reset_index().sort_values(["date", "started", "commit"])
+
+
+def _latest(frame: pd.DataFrame) -> pd.DataFrame:
+    """One row per (commit, benchmark, params): the latest measured, when several environments ran."""
+    return frame.sort_values("started_at", na_position="first").drop_duplicates(
+        ["commit", "benchmark", "params"], keep="last"
+    )
+
+
+def _history(frame: pd.DataFrame, commits: list[str]) -> list[str]:
+    lines: list[str] = []
+    frame = _latest(frame[frame["commit"].isin(commits)])
+    for name, bench in frame.groupby("benchmark", sort=True):
+        by_commit = {c: g for c, g in bench.groupby("commit")}
+        heads, order = [], [c for c in commits if c in by_commit]
+        for c in order:
+            heads.append(f"`{c}` ({by_commit[c]['date'].iloc[0]:%Y-%m-%d}{_samples_note(by_commit[c])})")
+        rows = []
+        for params, group in bench.sort_values("param_index").groupby("params", sort=False):
+            cells = {r["commit"]: format_cell(r) for _, r in group.iterrows()}
+            rows.append([params or "–"] + [cells.get(c, "–") for c in order])
+        lines += [f"### `{name}`", "", table(rows, ["parameters", *heads]), ""]
+    return lines
+
+
+def _quick_commits(frame: pd.DataFrame) -> set[str]:
+    """Commits whose every timing has a single sample (``asv run --quick``)."""
+    timed = frame[(frame["kind"] == "time") & (frame["status"] == "ok")]
+    quick = single_sample(timed).groupby(timed["commit"]).all()
+    return set(quick[quick].index)
+
+
+def _pick(order: list[str], compare: tuple[str, str] | None) -> tuple[str, str] | None:
+    if compare is None:
+        return (order[-2], order[-1]) if len(order) >= 2 else None
+    found = [next((c for c in order if c.startswith(w[:8]) or w.startswith(c)), None) for w in compare]
+    return (found[0], found[1]) if None not in found else None
+
+
+def _test_text(v) -> str:
+    if v.difference is None:
+        return "–"
+    if v.difference.p is not None:
+        return f"U test: p = {v.difference.p:.2g}"
+    return "99 % CIs apart" if v.difference.different else "99 % CIs overlap"
+
+
+def _comparison(frame: pd.DataFrame, base: str, head: str, machine: str, factor: float) -> list[str]:
+    before = _latest(frame[frame["commit"] == base]).set_index(["benchmark", "params"])
+    after = _latest(frame[frame["commit"] == head]).set_index(["benchmark", "params"])
+    rows, counts = [], dict.fromkeys(VERDICTS, 0)
+    grid = {**after["param_index"].to_dict(), **before["param_index"].to_dict()}
+    for key in sorted(grid, key=lambda k: (k[0], grid[k])):
+        b = before.loc[key].to_dict() if key in before.index else {"status": "missing"}
+        a = after.loc[key].to_dict() if key in after.index else {"status": "missing"}
+        v = verdict(b, a, factor=factor)
+        counts[v.word] += 1
+        ratio = "–" if v.ratio != v.ratio else f"{v.ratio:.2f}"
+        cells = [format_cell(x) if x["status"] != "missing" else "–" for x in (b, a)]
+        row = [f"`{key[0]}`", key[1] or "–", *cells, ratio, v.word, _test_text(v)]
+        rows.append((VERDICTS.index(v.word), row))
+    rows.sort(key=lambda r: r[0])
+    summary = ", ".join(f"{n} {word}" for word, n in counts.items() if n)
+    return [
+        f"## Comparison `{base}` → `{head}` (machine `{machine}`)",
+        "",
+        f"Verdicts with asv's rule at a factor of {factor:g}: {summary}. The ratio is `{head}` / "
+        f"`{base}`. A value is *slower*/*faster* "
+        f"(or *higher*/*lower*) only when the ratio passes the factor and the samples differ "
+        f"significantly (Mann-Whitney U, p < {P_THRESHOLD:g}, or 99 % confidence intervals of "
+        "the medians apart); *noise* passes the factor but not the test; *cannot tell*: a "
+        "single sample or no statistics, so no test is possible.",
+        "",
+        table(
+            [r for _, r in rows],
+            ["benchmark", "parameters", f"`{base}`", f"`{head}`", "ratio", "verdict", "test"],
+            "llrrrll",
+        ),
+        "",
+    ]
+
+
+def _method(factor: float) -> list[str]:
+    return [
+        "## Comparing two commits without mistaking noise for change",
+        "",
+        "Run both commits in one asv session on a quiet machine, interleaving their rounds so "
+        "that a change of load hits both alike, and record the samples so that asv can test "
+        "them (`asv continuous` records them by default):",
+        "",
+        "```bash",
+        f"asv continuous --interleave-rounds -a rounds=4 --factor {factor:g} --split BASE HEAD",
+        f"asv compare --split --factor {factor:g} BASE HEAD     # again, from the saved results",
+        "replication report --performance                # this page: the latest two commits",
+        "```",
+        "",
+        "`asv continuous` exits with status 1 when a benchmark got slower beyond the factor and "
+        "significantly. Never compare `--quick` results: one sample per benchmark, no test. "
+        "The ratios of a single run on a loaded machine are not evidence; the test decides, "
+        "and *noise* means a difference the samples do not support.",
+        "",
+    ]
+
+
 def render_performance(
-    results_dir: str | os.PathLike[str], out_dir: str | os.PathLike[str], *, commits: int = 5
+    results_dir: str | os.PathLike[str],
+    out_dir: str | os.PathLike[str],
+    *,
+    commits: int = 5,
+    compare: tuple[str, str] | None = None,
+    factor: float = FACTOR,
 ) -> Path:
-    """Write ``performance.md`` with the last ``commits`` commits of every machine."""
+    """Write ``performance.md`` from asv's results.
+
+    Parameters
+    ----------
+    results_dir, out_dir : path
+        asv's results directory; where ``performance.md`` goes.
+    commits : int
+        How many of the most recent measured commits each machine's history shows.
+    compare : (str, str), optional
+        The commits to compare (hash prefixes, older first); by default the two most recent
+        measured commits of each machine.
+    factor : float
+        Ratio within which values count as the same (asv's ``--factor``).
+
+    Notes
+    -----
+    Performance tracking of the paper's pipelines; no section of the paper.
+    """
+    if commits < 1:
+        raise ValueError(f"commits must be positive, got {commits=}")
     frame = load_asv_results(results_dir)
-    out = Path(out_dir)
     lines = [
         "# Performance history (asv)",
         "",
         f"Generated by `replication report --performance` from the asv results in `{results_dir}`.",
-        "Each table shows a benchmark's value at the most recent commits benchmarked on a machine",
-        "(asv's median over its repeats for times and memory; tracked numbers as recorded).",
-        "Run the suite and compare commits with the commands in the README.",
+        "Each value is asv's median over its samples; for timings, `±` is half the interquartile",
+        "range of the samples as a percentage of the median, and `n` in a column head is the",
+        "number of samples behind each value. Single-sample (`asv run --quick`) runs are listed",
+        "apart: they are smoke tests, not measurements.",
         "",
     ]
     if frame.empty:
-        lines.append("No benchmark results recorded yet.")
+        lines += ["No benchmark results recorded yet.", ""]
     for machine, by_machine in frame.groupby("machine", sort=True):
-        order = by_machine.drop_duplicates("commit").sort_values("date").tail(commits)
-        heads = [f"`{c}` ({d:%Y-%m-%d})" for c, d in zip(order["commit"], order["date"])]
+        quick = _quick_commits(by_machine)
+        order = _commits(by_machine)["commit"].tolist()
+        measured = [c for c in order if c not in quick]
         lines += [f"## Machine `{machine}`", ""]
-        recent = by_machine[by_machine["commit"].isin(order["commit"])]
-        for name, bench in recent.groupby("benchmark", sort=True):
-            rows = []
-            for params, group in bench.groupby("params", sort=False):
-                values = group.drop_duplicates("commit", keep="last").set_index("commit")["value"]
-                unit = group["unit"].iloc[0]
-                rows.append(
-                    [params or "–"] + [_format(values.get(c, float("nan")), unit) for c in order["commit"]]
-                )
-            lines += [f"### `{name}`", "", table(rows, ["parameters", *heads]), ""]
-    path = out / "performance.md"
+        lines += _history(by_machine, measured[-commits:]) if measured else ["No measured commits.", ""]
+        pair = _pick(measured, compare)
+        if pair:
+            lines += _comparison(by_machine, *pair, machine, factor)
+        elif compare is not None:
+            missing = " or ".join(f"`{c}`" for c in compare)
+            lines += [f"No comparison on machine `{machine}`: no measured results of {missing}.", ""]
+        if quick:
+            lines += [
+                f"## Single-sample runs (`asv run --quick`) on machine `{machine}`",
+                "",
+                "One sample per benchmark, no warm-up: these show that the suite runs, not how fast.",
+                "",
+            ]
+            lines += _history(by_machine, [c for c in order if c in quick][-commits:])
+    lines += _method(factor)
+    out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(path, "\n".join(lines) + "\n")
+    path = out / "performance.md"
+    atomic_write_text(path, "\n".join(lines).rstrip("\n") + "\n")
     return path

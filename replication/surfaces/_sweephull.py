@@ -1,27 +1,28 @@
-"""Compiled 2-D Delaunay triangulation by radial sweep (numba).
+"""Compiled 2-D Delaunay triangulation of one block of points by radial sweep (numba).
 
-This is the project's fast triangulation backend, used by :mod:`replication.surfaces.delaunay`.
-It implements the sweep-hull idea (D. A. Sinclair, "S-hull: a fast radial sweep-hull routine
-for Delaunay triangulation", 2010; popularised by the Delaunator library): points are inserted
-in order of distance from the circumcentre of a seed triangle, so every new point lies outside
-the convex hull built so far; it is joined to the hull edges it can see and the new edges are
-made Delaunay by edge flips. Written from the published algorithm for this project, with two
-changes that matter for lattice (highly degenerate) clouds:
+The sweep-hull idea (D. A. Sinclair, "S-hull: a fast radial sweep-hull routine for Delaunay
+triangulation", 2010; popularised by the Delaunator library): points are inserted in order
+of distance from the circumcentre of a seed triangle, so every new point lies outside the
+convex hull built so far; it is joined to the hull edges it can see and the new edges are
+made Delaunay by edge flips. Written from the published algorithm for this project, with
+two changes that matter for lattice (highly degenerate) clouds:
 
-* **Exact orientation.** Which hull edges a point sees is decided by an orientation predicate
-  with a floating-point filter and an exact fallback (products split into exact two-term
-  expansions, summed exactly), so collinear lattice points are never misclassified.
+* **Exact predicates** (:mod:`._predicates`): which hull edges a point sees and whether an
+  edge is flipped are decided exactly, so collinear and co-circular lattice points are never
+  misclassified and every edge of the result is locally Delaunay in exact arithmetic (an edge
+  is flipped only when the opposite point is strictly inside the circle, so the flips
+  terminate; in exactly co-circular configurations either diagonal is Delaunay).
 * **An empty-circle seed.** The seed edge joins a point to its nearest neighbour (always a
   Delaunay edge) and the third point is the one on the left whose circle through the edge has
-  the smallest signed centre offset, so the seed triangle's circumcircle holds no other point
-  and the sorted points are guaranteed to lie outside the growing hull.
+  the smallest signed centre offset, so the seed triangle's circumcircle holds no other point.
 
-Edges are flipped only when the in-circle test is *certainly* violated (beyond its rounding
-error bound), so the flip sequence always terminates; in exactly co-circular configurations
-(a square lattice) either diagonal is a valid Delaunay choice.
-
-All routines take contiguous float64 coordinate arrays holding distinct points; the Python
-wrapper removes duplicates first and checks that every point was used.
+The kernel works in a *global* index space so that several blocks can be triangulated at the
+same time into shared arrays (:mod:`._triangulate`): block points are ``lo .. hi - 1`` of the
+coordinate arrays, already sorted by distance from the sweep centre; triangle ``t`` occupies
+slots ``3 t .. 3 t + 2`` of ``tri`` (vertex indices) and ``he`` (the opposite half-edge, -1 on
+the hull). Half-edge ``e`` runs from ``tri[e]`` to ``tri[next(e)]``; triangles are
+counter-clockwise. The convex hull is kept as a doubly linked cycle (``hull_next``,
+``hull_prev``) with ``hull_tri[v]``, the half-edge of the hull edge ``v -> hull_next[v]``.
 """
 
 from __future__ import annotations
@@ -29,10 +30,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-_EPS = 2.0**-53
-_SPLITTER = 134217729.0  # 2**27 + 1, Dekker's splitter for float64
-_CCW_ERRBOUND = (3.0 + 16.0 * _EPS) * _EPS
-_ICC_ERRBOUND = (10.0 + 96.0 * _EPS) * _EPS
+from replication.surfaces._predicates import incircle, orient
+
+__all__ = ["orient", "incircle", "seed_triangle", "sweep", "legalize"]
 
 STATUS_OK = 0
 STATUS_COLLINEAR = 1
@@ -40,123 +40,29 @@ STATUS_SKIPPED = 2
 
 
 @njit(cache=True, inline="always")
-def _two_sum(a, b):
-    x = a + b
-    bv = x - a
-    av = x - bv
-    return x, (a - av) + (b - bv)
-
-
-@njit(cache=True, inline="always")
-def _two_product(a, b):
-    x = a * b
-    c = _SPLITTER * a
-    ahi = c - (c - a)
-    alo = a - ahi
-    c = _SPLITTER * b
-    bhi = c - (c - b)
-    blo = b - bhi
-    err = x - ahi * bhi
-    err -= alo * bhi
-    err -= ahi * blo
-    return x, alo * blo - err
-
-
-@njit(cache=True)
-def _grow(expansion, length, b):
-    """Add the double ``b`` to a non-overlapping expansion in place (zero elimination)."""
-    q = b
-    out = 0
-    for i in range(length):
-        q, h = _two_sum(q, expansion[i])
-        if h != 0.0:
-            expansion[out] = h
-            out += 1
-    if q != 0.0 or out == 0:
-        expansion[out] = q
-        out += 1
-    return out
-
-
-@njit(cache=True)
-def _orient_exact(ax, ay, bx, by, cx, cy):
-    """Exact sign of the orientation determinant, as a sum of six exact products."""
-    terms = np.empty(12)
-    terms[0], terms[1] = _two_product(ax, by)
-    terms[2], terms[3] = _two_product(-ax, cy)
-    terms[4], terms[5] = _two_product(-cx, by)
-    terms[6], terms[7] = _two_product(-ay, bx)
-    terms[8], terms[9] = _two_product(ay, cx)
-    terms[10], terms[11] = _two_product(cy, bx)
-    expansion = np.zeros(25)
-    length = 0
-    for k in range(12):
-        if terms[k] != 0.0:
-            length = _grow(expansion, length, terms[k])
-    for k in range(length - 1, -1, -1):  # most significant component last
-        if expansion[k] != 0.0:
-            return 1.0 if expansion[k] > 0.0 else -1.0
-    return 0.0
-
-
-@njit(cache=True)
-def orient(ax, ay, bx, by, cx, cy):
-    """Sign of the signed area of (a, b, c): +1 counter-clockwise, -1 clockwise, 0 collinear."""
-    left = (ax - cx) * (by - cy)
-    right = (ay - cy) * (bx - cx)
-    det = left - right
-    bound = _CCW_ERRBOUND * (abs(left) + abs(right))
-    if det > bound:
-        return 1.0
-    if -det > bound:
-        return -1.0
-    return _orient_exact(ax, ay, bx, by, cx, cy)
-
-
-@njit(cache=True, inline="always")
-def _certainly_in_circle(ax, ay, bx, by, cx, cy, dx, dy):
-    """True when d lies certainly inside the circle through the counter-clockwise a, b, c."""
-    adx = ax - dx
-    ady = ay - dy
-    bdx = bx - dx
-    bdy = by - dy
-    cdx = cx - dx
-    cdy = cy - dy
-    bc1 = bdx * cdy
-    bc2 = cdx * bdy
-    alift = adx * adx + ady * ady
-    ca1 = cdx * ady
-    ca2 = adx * cdy
-    blift = bdx * bdx + bdy * bdy
-    ab1 = adx * bdy
-    ab2 = bdx * ady
-    clift = cdx * cdx + cdy * cdy
-    det = alift * (bc1 - bc2) + blift * (ca1 - ca2) + clift * (ab1 - ab2)
-    permanent = (abs(bc1) + abs(bc2)) * alift + (abs(ca1) + abs(ca2)) * blift + (abs(ab1) + abs(ab2)) * clift
-    return det > _ICC_ERRBOUND * permanent
-
-
-@njit(cache=True, inline="always")
-def _link(halfedges, a, b):
-    halfedges[a] = b
+def _link(he, a, b):
+    he[a] = b
     if b != -1:
-        halfedges[b] = a
+        he[b] = a
 
 
-@njit(cache=True, inline="always")
-def _pseudo_angle_key(dx, dy, size):
+@njit(cache=True)
+def _angle_key(dx, dy, mask):
+    """Bucket of the pseudo-angle of (dx, dy) in a table of ``mask + 1`` buckets."""
     s = abs(dx) + abs(dy)
     p = dx / s if s > 0.0 else 0.0
-    angle = (3.0 - p) / 4.0 if dy > 0.0 else (1.0 + p) / 4.0  # in [0, 1), increasing with angle
-    return int(np.floor(angle * size)) % size
+    angle = (3.0 - p) if dy > 0.0 else (1.0 + p)  # in [0, 4), increasing with the angle
+    return int(angle * 0.25 * (mask + 1)) & mask
 
 
-@njit(cache=True)
-def _legalize(start, x, y, tri, halfedges, hull_tri, stack):
-    """Flip edges opposite the newly inserted point until all are locally Delaunay.
+@njit(cache=True, nogil=True, inline="always")
+def legalize(start, xy, tri, he, hull_tri, stack):
+    """Flip edges opposite a newly inserted point until all are locally Delaunay.
 
     Every edge on the stack is a half-edge whose triangle has the new point as its apex.
     Hull half-edges that a flip moves to another slot are re-registered in ``hull_tri``.
+    All flips of one insertion are incident to the new point and remove an edge for good,
+    so the stack never holds more entries than the triangulation has edges.
     """
     top = 0
     stack[top] = start
@@ -164,7 +70,7 @@ def _legalize(start, x, y, tri, halfedges, hull_tri, stack):
     while top > 0:
         top -= 1
         a = stack[top]
-        b = halfedges[a]
+        b = he[a]
         if b == -1:
             continue
         a0 = a - a % 3
@@ -177,145 +83,132 @@ def _legalize(start, x, y, tri, halfedges, hull_tri, stack):
         q = tri[a1]
         r = tri[a2]  # the new point
         s = tri[b2]
-        if not _certainly_in_circle(x[p], y[p], x[q], y[q], x[r], y[r], x[s], y[s]):
+        if incircle(xy[p, 0], xy[p, 1], xy[q, 0], xy[q, 1], xy[r, 0], xy[r, 1], xy[s, 0], xy[s, 1]) <= 0.0:
             continue
-        ha2 = halfedges[a2]
-        hb2 = halfedges[b2]
+        ha2 = he[a2]
+        hb2 = he[b2]
         tri[a] = s
         tri[b] = r
-        _link(halfedges, a, hb2)
+        _link(he, a, hb2)
         if hb2 == -1:
-            hull_tri[s] = a  # hull edge s->q now lives in slot a
-        _link(halfedges, b, ha2)
+            hull_tri[s] = a  # hull edge s -> q now lives in slot a
+        _link(he, b, ha2)
         if ha2 == -1:
-            hull_tri[r] = b  # hull edge r->p now lives in slot b
-        _link(halfedges, a2, b2)
-        if top + 2 > stack.shape[0]:
-            bigger = np.empty(2 * stack.shape[0], dtype=stack.dtype)
-            bigger[:top] = stack[:top]
-            stack = bigger
+            hull_tri[r] = b  # hull edge r -> p now lives in slot b
+        _link(he, a2, b2)
         stack[top] = a
         stack[top + 1] = b1
         top += 2
-    return stack
 
 
-@njit(cache=True, error_model="numpy")
-def _seed(x, y):
-    """Return an empty-circle seed triangle (i0, i1, i2), counter-clockwise, or -1s if collinear."""
-    n = x.shape[0]
-    cx = 0.5 * (x.min() + x.max())
-    cy = 0.5 * (y.min() + y.max())
+@njit(cache=True, nogil=True, error_model="numpy")
+def seed_triangle(xy):
+    """An empty-circle seed triangle of the points ``xy`` (n, 2) and its circumcentre.
+
+    Returns ``(i0, i1, i2, cx, cy)``, counter-clockwise; the indices are -1 when the points
+    are collinear (no triangle exists). Repeated positions are allowed (a point's duplicate
+    is never chosen as its neighbour).
+    """
+    n = xy.shape[0]
+    if n < 3:
+        return -1, -1, -1, 0.0, 0.0
+    lo_x = np.inf
+    hi_x = -np.inf
+    lo_y = np.inf
+    hi_y = -np.inf
+    for k in range(n):
+        lo_x = min(lo_x, xy[k, 0])
+        hi_x = max(hi_x, xy[k, 0])
+        lo_y = min(lo_y, xy[k, 1])
+        hi_y = max(hi_y, xy[k, 1])
+    cx = 0.5 * (lo_x + hi_x)
+    cy = 0.5 * (lo_y + hi_y)
     i0 = 0
     best = np.inf
-    for i in range(n):
-        d = (x[i] - cx) ** 2 + (y[i] - cy) ** 2
+    for k in range(n):
+        d = (xy[k, 0] - cx) ** 2 + (xy[k, 1] - cy) ** 2
         if d < best:
             best = d
-            i0 = i
+            i0 = k
+    x0 = xy[i0, 0]
+    y0 = xy[i0, 1]
     i1 = -1
     best = np.inf
-    for i in range(n):
-        if i == i0:
+    for k in range(n):
+        if xy[k, 0] == x0 and xy[k, 1] == y0:
             continue
-        d = (x[i] - x[i0]) ** 2 + (y[i] - y[i0]) ** 2
+        d = (xy[k, 0] - x0) ** 2 + (xy[k, 1] - y0) ** 2
         if d < best:
             best = d
-            i1 = i
+            i1 = k
+    if i1 < 0:
+        return -1, -1, -1, 0.0, 0.0
     # The nearest-neighbour edge i0-i1 is Delaunay; complete it on the side that has points
     # with the circle whose centre offset along the left normal is smallest (empty circle).
     for _side in range(2):
-        mx = 0.5 * (x[i0] + x[i1])
-        my = 0.5 * (y[i0] + y[i1])
-        nx = -(y[i1] - y[i0])
-        ny = x[i1] - x[i0]
+        ax = xy[i0, 0]
+        ay = xy[i0, 1]
+        bx = xy[i1, 0]
+        by = xy[i1, 1]
+        mx = 0.5 * (ax + bx)
+        my = 0.5 * (ay + by)
+        nx = -(by - ay)
+        ny = bx - ax
         half2 = 0.25 * (nx * nx + ny * ny)
         i2 = -1
         best = np.inf
-        for i in range(n):
-            if i == i0 or i == i1:
+        for k in range(n):
+            px = xy[k, 0]
+            py = xy[k, 1]
+            if orient(ax, ay, bx, by, px, py) <= 0.0:
                 continue
-            if orient(x[i0], y[i0], x[i1], y[i1], x[i], y[i]) <= 0.0:
-                continue
-            qx = x[i] - mx
-            qy = y[i] - my
+            qx = px - mx
+            qy = py - my
             denominator = 2.0 * (qx * nx + qy * ny)
             if not denominator > 0.0:  # underflow: the point is numerically on the line
                 continue
-            k = (qx * qx + qy * qy - half2) / denominator
-            if k < best:
-                best = k
-                i2 = i
+            offset = (qx * qx + qy * qy - half2) / denominator
+            if offset < best:
+                best = offset
+                i2 = k
         if i2 >= 0:
-            return i0, i1, i2
+            ex = xy[i2, 0] - ax
+            ey = xy[i2, 1] - ay
+            dx = bx - ax
+            dy = by - ay
+            bl = dx * dx + dy * dy
+            el = ex * ex + ey * ey
+            f = 0.5 / (dx * ey - dy * ex)
+            return i0, i1, i2, ax + (ey * bl - dy * el) * f, ay + (dx * el - ex * bl) * f
         i0, i1 = i1, i0
-    return -1, -1, -1
+    return -1, -1, -1, 0.0, 0.0
 
 
-@njit(cache=True, error_model="numpy")
-def sweep_centre(x, y):
-    """Return the seed triangle ``(i0, i1, i2)`` and its circumcentre (the sweep centre).
+@njit(cache=True, nogil=True, error_model="numpy")
+def sweep(xy, lo, hi, i0, i1, i2, ccx, ccy, tri, he, t_lo, hull_next, hull_prev, hull_tri):
+    """Triangulate the points ``lo .. hi - 1`` of ``xy`` (n, 2), sorted by distance from (ccx, ccy).
 
-    The indices are -1 when all points are collinear (no triangle exists).
+    ``(i0, i1, i2)`` is the counter-clockwise seed triangle (global indices) whose
+    circumcentre is (ccx, ccy). Triangles are written from slot ``t_lo`` on (at most
+    ``2 (hi - lo) - 5`` of them). Returns ``(n_triangles, n_skipped, a hull vertex)``; a
+    skipped point is one that rounding of the sort key put inside the hull (the caller
+    must then triangulate another way).
     """
-    i0, i1, i2 = _seed(x, y)
-    if i0 < 0:
-        return i0, i1, i2, 0.0, 0.0
-    bx = x[i1] - x[i0]
-    by = y[i1] - y[i0]
-    ex = x[i2] - x[i0]
-    ey = y[i2] - y[i0]
-    bl = bx * bx + by * by
-    el = ex * ex + ey * ey
-    d = 0.5 / (bx * ey - by * ex)
-    ccx = x[i0] + (ey * bl - by * el) * d
-    ccy = y[i0] + (bx * el - ex * bl) * d
-    return i0, i1, i2, ccx, ccy
+    n = hi - lo
+    size = 1
+    while size * size < n:
+        size *= 2
+    mask = size - 1
+    hull_hash = np.full(size, -1, dtype=tri.dtype)
+    stack = np.empty(3 * n + 8, dtype=tri.dtype)  # virtual memory: only the used part is touched
+    for v in range(lo, hi):
+        hull_next[v] = v  # a vertex v with hull_next[v] == v is not on the hull
+    he[3 * t_lo : 3 * (t_lo + max(2 * n - 5, 1))] = -1
 
-
-def sweep_hull(x, y):
-    """Delaunay-triangulate distinct points; return ``(triangles, status, n_skipped)``.
-
-    ``x`` and ``y`` are float64 arrays of distinct points. ``triangles`` is an (m, 3) int64
-    array of counter-clockwise vertex triples. ``status`` is ``STATUS_OK``,
-    ``STATUS_COLLINEAR`` (no triangle exists) or ``STATUS_SKIPPED`` (some point could not be
-    inserted; the caller must fall back to another backend).
-    """
-    x = np.ascontiguousarray(x, dtype=np.float64)
-    y = np.ascontiguousarray(y, dtype=np.float64)
-    if x.shape[0] < 3:
-        return np.empty((0, 3), dtype=np.int64), STATUS_COLLINEAR, 0
-    i0, i1, i2, ccx, ccy = sweep_centre(x, y)
-    if i0 < 0:
-        return np.empty((0, 3), dtype=np.int64), STATUS_COLLINEAR, 0
-    if not (np.isfinite(ccx) and np.isfinite(ccy)):  # coordinates beyond float64's range
-        return np.empty((0, 3), dtype=np.int64), STATUS_SKIPPED, x.shape[0]
-    # Renumber the points in sweep order: the hull and the triangles being flipped are then
-    # always recent, so the working set stays in cache (about 3x faster at 1e6 points).
-    order = np.argsort((x - ccx) ** 2 + (y - ccy) ** 2)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(order.shape[0])
-    tri, status, skipped = _sweep(x[order], y[order], rank[i0], rank[i1], rank[i2], ccx, ccy)
-    return order[tri], status, skipped
-
-
-@njit(cache=True, error_model="numpy")
-def _sweep(x, y, i0, i1, i2, ccx, ccy):
-    """Main sweep over points already sorted by distance from the centre (ccx, ccy)."""
-    n = x.shape[0]
-    max_tri = 2 * n - 5
-    tri = np.empty(3 * max_tri, dtype=np.int64)
-    halfedges = np.full(3 * max_tri, -1, dtype=np.int64)
-    hull_next = np.arange(n)  # a vertex v with hull_next[v] == v is not on the hull
-    hull_prev = np.arange(n)
-    hull_tri = np.full(n, -1, dtype=np.int64)  # half-edge of the hull edge v -> hull_next[v]
-    hash_size = max(1, int(np.ceil(np.sqrt(n))))
-    hull_hash = np.full(hash_size, -1, dtype=np.int64)
-    stack = np.empty(64, dtype=np.int64)
-
-    tri[0] = i0
-    tri[1] = i1
-    tri[2] = i2
+    t = 3 * t_lo
+    tri[t] = i0
+    tri[t + 1] = i1
+    tri[t + 2] = i2
     n_tri = 1
     hull_next[i0] = i1
     hull_next[i1] = i2
@@ -323,24 +216,26 @@ def _sweep(x, y, i0, i1, i2, ccx, ccy):
     hull_prev[i1] = i0
     hull_prev[i2] = i1
     hull_prev[i0] = i2
-    hull_tri[i0] = 0
-    hull_tri[i1] = 1
-    hull_tri[i2] = 2
-    for v in (i0, i1, i2):
-        hull_hash[_pseudo_angle_key(x[v] - ccx, y[v] - ccy, hash_size)] = v
+    hull_tri[i0] = t
+    hull_tri[i1] = t + 1
+    hull_tri[i2] = t + 2
+    hull_hash[_angle_key(xy[i0, 0] - ccx, xy[i0, 1] - ccy, mask)] = i0
+    hull_hash[_angle_key(xy[i1, 0] - ccx, xy[i1, 1] - ccy, mask)] = i1
+    hull_hash[_angle_key(xy[i2, 0] - ccx, xy[i2, 1] - ccy, mask)] = i2
 
     skipped = 0
-    for p in range(n):
+    last = i0
+    for p in range(lo, hi):
         if p == i0 or p == i1 or p == i2:
             continue
-        px = x[p]
-        py = y[p]
+        px = xy[p, 0]
+        py = xy[p, 1]
 
         # a hull vertex near p's direction from the centre
-        key = _pseudo_angle_key(px - ccx, py - ccy, hash_size)
+        key = _angle_key(px - ccx, py - ccy, mask)
         start = i0
-        for j in range(hash_size):
-            cand = hull_hash[(key + j) % hash_size]
+        for j in range(size):
+            cand = hull_hash[(key + j) & mask]
             if cand != -1 and hull_next[cand] != cand:
                 start = cand
                 break
@@ -351,7 +246,7 @@ def _sweep(x, y, i0, i1, i2, ccx, ccy):
         found = False
         while True:
             q = hull_next[e]
-            if orient(x[e], y[e], x[q], y[q], px, py) < 0.0:
+            if orient(xy[e, 0], xy[e, 1], xy[q, 0], xy[q, 1], px, py) < 0.0:
                 found = True
                 break
             e = q
@@ -361,32 +256,32 @@ def _sweep(x, y, i0, i1, i2, ccx, ccy):
             skipped += 1
             continue
 
-        # triangle (e, p, n) on the visible edge e -> n
+        # triangle (e, p, nxt) on the visible edge e -> nxt
         nxt = hull_next[e]
-        t = 3 * n_tri
+        t = 3 * (t_lo + n_tri)
         n_tri += 1
         tri[t] = e
         tri[t + 1] = p
         tri[t + 2] = nxt
-        _link(halfedges, t + 2, hull_tri[e])
+        _link(he, t + 2, hull_tri[e])
         hull_tri[e] = t
         hull_tri[p] = t + 1
-        stack = _legalize(t + 2, x, y, tri, halfedges, hull_tri, stack)
+        legalize(t + 2, xy, tri, he, hull_tri, stack)
 
         # walk forward over further visible edges
         while True:
             q = hull_next[nxt]
-            if orient(x[nxt], y[nxt], x[q], y[q], px, py) >= 0.0:
+            if orient(xy[nxt, 0], xy[nxt, 1], xy[q, 0], xy[q, 1], px, py) >= 0.0:
                 break
-            t = 3 * n_tri
+            t = 3 * (t_lo + n_tri)
             n_tri += 1
             tri[t] = nxt
             tri[t + 1] = p
             tri[t + 2] = q
-            _link(halfedges, t + 2, hull_tri[nxt])
-            _link(halfedges, t, hull_tri[p])
+            _link(he, t + 2, hull_tri[nxt])
+            _link(he, t, hull_tri[p])
             hull_tri[p] = t + 1
-            stack = _legalize(t + 2, x, y, tri, halfedges, hull_tri, stack)
+            legalize(t + 2, xy, tri, he, hull_tri, stack)
             hull_next[nxt] = nxt  # removed from the hull
             nxt = q
 
@@ -394,17 +289,17 @@ def _sweep(x, y, i0, i1, i2, ccx, ccy):
         if e == start:
             while True:
                 q = hull_prev[e]
-                if orient(x[q], y[q], x[e], y[e], px, py) >= 0.0:
+                if orient(xy[q, 0], xy[q, 1], xy[e, 0], xy[e, 1], px, py) >= 0.0:
                     break
-                t = 3 * n_tri
+                t = 3 * (t_lo + n_tri)
                 n_tri += 1
                 tri[t] = q
                 tri[t + 1] = p
                 tri[t + 2] = e
-                _link(halfedges, t + 2, hull_tri[q])
-                _link(halfedges, t + 1, hull_tri[e])
+                _link(he, t + 2, hull_tri[q])
+                _link(he, t + 1, hull_tri[e])
                 hull_tri[q] = t
-                stack = _legalize(t + 2, x, y, tri, halfedges, hull_tri, stack)
+                legalize(t + 2, xy, tri, he, hull_tri, stack)
                 hull_next[e] = e
                 e = q
 
@@ -412,8 +307,7 @@ def _sweep(x, y, i0, i1, i2, ccx, ccy):
         hull_next[e] = p
         hull_prev[nxt] = p
         hull_next[p] = nxt
-        hull_hash[_pseudo_angle_key(px - ccx, py - ccy, hash_size)] = p
-        hull_hash[_pseudo_angle_key(x[e] - ccx, y[e] - ccy, hash_size)] = e
-
-    out = tri[: 3 * n_tri].reshape(n_tri, 3).copy()
-    return out, (STATUS_SKIPPED if skipped else STATUS_OK), skipped
+        hull_hash[_angle_key(px - ccx, py - ccy, mask)] = p
+        hull_hash[_angle_key(xy[e, 0] - ccx, xy[e, 1] - ccy, mask)] = e
+        last = p
+    return n_tri, skipped, last

@@ -21,6 +21,7 @@ Choices where the paper is silent, documented here and tested:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Literal
 
@@ -28,9 +29,16 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from replication.errors import DegenerateInputError, InputError
-from replication.surfaces.cloud import as_cloud, underflow
-from replication.surfaces.delaunay import Backend, delaunay_2d
-from replication.surfaces.duplicates import DuplicatePolicy, merge_duplicates
+from replication.surfaces._spread import validated_cloud
+from replication.surfaces.cloud import underflow
+from replication.surfaces.delaunay import Backend, planar_delaunay
+from replication.surfaces.duplicates import (
+    DUPLICATE_POLICIES,
+    DuplicatePolicy,
+    apply_policy,
+    group_positions,
+    groups_from_pairs,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     import pyvista
@@ -90,16 +98,19 @@ def select_depth_axis(
     -----
     Paper eq. 7 (min or max) and eq. 8 (ties: Z first, then Y).
     """
-    v = np.asarray(spreads, dtype=np.float64)
-    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.any(v < 0):
+    try:
+        v = [float(s) for s in spreads]  # type: ignore[union-attr]
+    except (TypeError, ValueError):
+        v = []
+    if len(v) != 3 or not all(math.isfinite(s) and s >= 0 for s in v):
         raise InputError(f"spreads must be 3 finite non-negative numbers, got {spreads!r}")
     if rule not in ("min", "max"):
         raise InputError(f"depth rule must be 'min' or 'max', got {rule!r}")
     if not tie_rtol >= 0:
         raise InputError(f"tie tolerance must be non-negative, got {tie_rtol=}")
-    extreme = v.min() if rule == "min" else v.max()
-    tied = np.abs(v - extreme) <= tie_rtol * v.max()
-    return next(axis for axis in (2, 1, 0) if tied[axis])
+    extreme = min(v) if rule == "min" else max(v)
+    scale = tie_rtol * max(v)
+    return next(axis for axis in (2, 1, 0) if abs(v[axis] - extreme) <= scale)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -124,8 +135,15 @@ class Surface:
     points : ndarray of float64, shape (n_vertices, 3)
         Vertices. Without duplicates they are the input points in input order; otherwise one
         vertex per distinct projected position, in order of first occurrence.
-    triangles : ndarray of int64, shape (n_triangles, 3)
-        Vertex indices, counter-clockwise in the (u, v) projection plane.
+    triangles : ndarray of int32, shape (n_triangles, 3)
+        Vertex indices, counter-clockwise in the (u, v) projection plane (int64 only for
+        clouds of more than 357 million points).
+    neighbors : ndarray of int32, shape (n_triangles, 3)
+        ``neighbors[t, k]`` is the triangle across the edge from ``triangles[t, k]`` to
+        ``triangles[t, (k + 1) % 3]``, -1 on the boundary (the triangulator's adjacency,
+        reused for point location and by the jet model).
+    hull : ndarray of int32
+        The boundary (convex hull) vertices, counter-clockwise.
     depth_axis : int
         Axis perpendicular to the surface (0, 1, 2 for x, y, z).
     projection_axes : tuple of int
@@ -136,14 +154,20 @@ class Surface:
         ``"min"``, ``"max"``, or the axis name when the depth axis was imposed.
     duplicate_policy : str
         Policy applied to points sharing a projected position.
-    vertex_of_input : ndarray of int64, shape (n_input,)
+    vertex_of_input : ndarray of int32, shape (n_input,)
         The vertex each input point became (the merge record).
     backend : str
         Triangulation backend that produced the triangles.
+    vertex_order : ndarray of int32 or None
+        The vertices in the triangulator's storage order (block by block, each in sweep
+        order): a spatially coherent numbering that kernels visiting every triangle use for
+        memory locality (None when the backend has none).
     """
 
     points: np.ndarray
     triangles: np.ndarray
+    neighbors: np.ndarray
+    hull: np.ndarray
     depth_axis: int
     projection_axes: tuple[int, int]
     spreads: tuple[float, float, float]
@@ -151,11 +175,16 @@ class Surface:
     duplicate_policy: str
     vertex_of_input: np.ndarray
     backend: str
+    vertex_order: np.ndarray | None = field(default=None, repr=False)
     _input_size: int = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "points", _readonly(self.points))
         object.__setattr__(self, "triangles", _readonly(self.triangles))
+        object.__setattr__(self, "neighbors", _readonly(self.neighbors))
+        object.__setattr__(self, "hull", _readonly(self.hull))
+        if self.vertex_order is not None:
+            object.__setattr__(self, "vertex_order", _readonly(self.vertex_order))
         object.__setattr__(self, "vertex_of_input", _readonly(self.vertex_of_input))
         object.__setattr__(self, "_input_size", int(self.vertex_of_input.shape[0]))
 
@@ -244,47 +273,57 @@ def adt(
     -----
     Paper section 3.2, steps 4-10, eq. 5-9.
     """
-    cloud = as_cloud(points)
-    with np.errstate(over="ignore", invalid="ignore"):
-        spreads = tuple(float(s) for s in np.std(cloud, axis=0))
-    if not all(np.isfinite(spreads)):
-        raise InputError(
-            f"coordinates too large: their standard deviations {spreads} overflow float64; rescale the cloud"
-        )
+    cloud, spreads = validated_cloud(points)
     if depth in ("min", "max"):
         axis = select_depth_axis(spreads, depth, tie_rtol=tie_rtol)
     elif isinstance(depth, str) and depth in AXES:
         axis = AXES.index(depth)
     else:
         raise InputError(f"depth rule must be one of {DEPTH_RULES}, got {depth!r}")
+    if duplicates not in DUPLICATE_POLICIES:
+        raise InputError(f"unknown duplicate policy {duplicates!r}; choose one of {DUPLICATE_POLICIES}")
     u_axis, v_axis = projection_axes(axis)
-    merge = merge_duplicates(
-        cloud[:, u_axis],
-        cloud[:, v_axis],
-        cloud[:, axis],
-        duplicates,
-        axis_names=(AXES[u_axis], AXES[v_axis], AXES[axis]),
-    )
-    vertices = cloud[merge.first]  # fancy indexing copies
-    vertices[:, axis] = merge.depth
     try:
-        triangles, used = delaunay_2d(vertices[:, [u_axis, v_axis]], backend=backend)
+        planar, used = planar_delaunay(cloud, (u_axis, v_axis), backend=backend)
     except DegenerateInputError as exc:
-        why = underflow(vertices[:, [u_axis, v_axis]], (AXES[u_axis], AXES[v_axis]))  # not collinear: tiny
+        # the duplicate policy speaks first (its warning, or its error under "raise")
+        group, first = group_positions(cloud[:, u_axis], cloud[:, v_axis])
+        apply_policy(
+            group, first, cloud[:, axis], duplicates, axis_names=(AXES[u_axis], AXES[v_axis], AXES[axis])
+        )
+        why = underflow(cloud[:, [u_axis, v_axis]], (AXES[u_axis], AXES[v_axis]))  # not collinear: tiny
         if why is not None:
             raise DegenerateInputError(why) from exc
         raise DegenerateInputError(
             f"{exc} (projection plane ({AXES[u_axis]}, {AXES[v_axis]}), depth axis "
             f"{AXES[axis]}, rule {depth!r}; another --depth rule may help)"
         ) from exc
+    n = cloud.shape[0]
+    if planar.duplicates.size == 0:  # every point is a vertex, in input order
+        vertices = cloud.copy()
+        vertex_of_input = np.arange(n, dtype=planar.triangles.dtype)
+        triangles, hull, order = planar.triangles, planar.hull, planar.order
+    else:
+        group, first = groups_from_pairs(n, planar.duplicates, planar.representatives)
+        merge = apply_policy(
+            group, first, cloud[:, axis], duplicates, axis_names=(AXES[u_axis], AXES[v_axis], AXES[axis])
+        )
+        vertices = cloud[first]  # fancy indexing copies
+        vertices[:, axis] = merge.depth
+        vertex_of_input = group
+        triangles, hull = group[planar.triangles], group[planar.hull]
+        order = None if planar.order is None else group[planar.order]
     return Surface(
         points=vertices,
         triangles=triangles,
+        neighbors=planar.neighbors,
+        hull=hull,
         depth_axis=axis,
         projection_axes=(u_axis, v_axis),
-        spreads=spreads,  # type: ignore[arg-type]
+        spreads=spreads,
         depth_rule=depth,
         duplicate_policy=duplicates,
-        vertex_of_input=merge.vertex_of_input,
+        vertex_of_input=vertex_of_input,
         backend=used,
+        vertex_order=order,
     )

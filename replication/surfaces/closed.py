@@ -55,6 +55,7 @@ from replication.surfaces.adt import AXES, Surface, adt, parse_axis, projection_
 from replication.surfaces.cloud import as_cloud
 from replication.surfaces.delaunay import Backend
 from replication.surfaces.duplicates import DuplicatePolicy
+from replication.threadlimits import single_blas_thread
 
 if TYPE_CHECKING:  # pragma: no cover
     import pyvista
@@ -247,6 +248,7 @@ def _half(
     return surface, world
 
 
+@single_blas_thread()  # its products have an inner dimension of 3: threads only stall them
 def closed_adt(
     points: ArrayLike,
     split: SplitPlane | str,

@@ -17,7 +17,15 @@ from numba import njit
 
 from replication.errors import DuplicatePointsWarning, InputError, shown
 
-__all__ = ["DUPLICATE_POLICIES", "DuplicatePolicy", "Merge", "group_positions", "merge_duplicates"]
+__all__ = [
+    "DUPLICATE_POLICIES",
+    "DuplicatePolicy",
+    "Merge",
+    "apply_policy",
+    "group_positions",
+    "groups_from_pairs",
+    "merge_duplicates",
+]
 
 DuplicatePolicy = Literal["mean", "min", "max", "first", "raise"]
 DUPLICATE_POLICIES: tuple[str, ...] = ("mean", "min", "max", "first", "raise")
@@ -75,12 +83,43 @@ def group_positions(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
     Notes
     -----
-    Equality is exact (``-0.0`` equals ``0.0``); a hash table makes this O(n).
+    Equality is exact (``-0.0`` equals ``0.0``); a hash table makes this O(n). The
+    sweep-hull triangulator finds the same groups from its own sort
+    (:func:`groups_from_pairs`); this is the reference, and the scipy backend's grouping.
     """
     # adding 0.0 turns -0.0 into +0.0 so that equal values have equal bits
     ubits = np.ascontiguousarray(np.asarray(u, dtype=np.float64) + 0.0).view(np.uint64)
     vbits = np.ascontiguousarray(np.asarray(v, dtype=np.float64) + 0.0).view(np.uint64)
     return _group_bits(ubits, vbits)
+
+
+def groups_from_pairs(
+    n: int, duplicates: np.ndarray, representatives: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`group_positions`' result from (duplicate, representative) index pairs.
+
+    Parameters
+    ----------
+    n : int
+        Number of points.
+    duplicates, representatives : ndarray of int
+        Every point that repeats an earlier position, and the first point at that position.
+
+    Returns
+    -------
+    group, first : ndarray
+        As for :func:`group_positions` (in the dtype of ``duplicates``).
+    """
+    dtype = duplicates.dtype
+    if duplicates.size == 0:
+        everything = np.arange(n, dtype=dtype)
+        return everything, everything
+    is_first = np.ones(n, dtype=bool)
+    is_first[duplicates] = False
+    first = np.flatnonzero(is_first).astype(dtype, copy=False)
+    group = (np.cumsum(is_first, dtype=np.int64) - 1).astype(dtype, copy=False)
+    group[duplicates] = group[representatives]
+    return group, first
 
 
 @dataclass(frozen=True, eq=False)
@@ -89,9 +128,9 @@ class Merge:
 
     Attributes
     ----------
-    vertex_of_input : ndarray of int64, shape (n,)
+    vertex_of_input : ndarray of int, shape (n,)
         The vertex that each input point became.
-    first : ndarray of int64, shape (n_vertices,)
+    first : ndarray of int, shape (n_vertices,)
         The input point whose projected position each vertex has (its first occurrence).
     depth : ndarray of float64, shape (n_vertices,)
         The depth coordinate of each vertex after the policy was applied.
@@ -144,6 +183,26 @@ def merge_duplicates(
     if policy not in DUPLICATE_POLICIES:
         raise InputError(f"unknown duplicate policy {policy!r}; choose one of {DUPLICATE_POLICIES}")
     group, first = group_positions(u, v)
+    return apply_policy(group, first, depth, policy, axis_names=axis_names, stacklevel=4)
+
+
+def apply_policy(
+    group: np.ndarray,
+    first: np.ndarray,
+    depth: np.ndarray,
+    policy: DuplicatePolicy = "mean",
+    *,
+    axis_names: tuple[str, str, str] = ("u", "v", "depth"),
+    stacklevel: int = 3,
+) -> Merge:
+    """Apply a duplicate policy to points grouped by position (see :func:`merge_duplicates`).
+
+    Notes
+    -----
+    Implements the project's duplicate policy for ADT (paper section 3.2, steps 7-10).
+    """
+    if policy not in DUPLICATE_POLICIES:
+        raise InputError(f"unknown duplicate policy {policy!r}; choose one of {DUPLICATE_POLICIES}")
     n, n_groups = group.shape[0], first.shape[0]
     if n_groups == n:
         return Merge(vertex_of_input=group, first=first, depth=np.asarray(depth, float)[first])
@@ -172,6 +231,6 @@ def merge_duplicates(
         f"point; {int(np.count_nonzero(counts > 1))} vertex/vertices took the {policy} "
         f"{dn} of their group (duplicate policy {policy!r})",
         DuplicatePointsWarning,
-        stacklevel=3,
+        stacklevel=stacklevel,
     )
     return Merge(vertex_of_input=group, first=first, depth=merged)

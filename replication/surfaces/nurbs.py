@@ -28,7 +28,8 @@ in every report):
   nodes. Node depths are the linear interpolation of the cloud, i.e. barycentric
   interpolation on its Delaunay triangulation (the ADT surface, with the same duplicate
   policy); nodes outside the cloud's convex hull, where linear interpolation is undefined,
-  take the depth of the **nearest** cloud point, and their number is reported.
+  take the depth of the **nearest** cloud point (of equally near points, the one of smallest
+  vertex index, i.e. the first in the cloud), and their number is reported.
 * **Knots.** Clamped: ``degree + 1`` zeros, uniform interior knots, ``degree + 1`` ones.
 * **Tessellation.** Building the surface includes evaluating it on a ``50 x 50`` grid of
   parameters (``tessellation``), with geomdl (the paper-faithful reference) or with the
@@ -45,12 +46,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from replication.errors import DegenerateInputError, InputError
+from replication.surfaces._spread import validated_cloud
 from replication.surfaces.adt import AXES, DEFAULT_TIE_RTOL, Surface, adt
 from replication.surfaces.bspline import evaluate_grid
-from replication.surfaces.cloud import as_cloud
 from replication.surfaces.delaunay import Backend
 from replication.surfaces.duplicates import DuplicatePolicy
-from replication.surfaces.interpolate import interpolate_linear
 from replication.surfaces.patch import NurbsPatch  # re-exported: nurbs.NurbsPatch keeps working
 
 __all__ = [
@@ -111,11 +111,10 @@ def control_net_shape(n: int, aspect: float, degree: int = 2, *, max_ratio: floa
         )
     target = math.log(aspect)
     best: tuple[float, int, int] | None = None
-    for a in range(low, n // low + 1):
-        if n % a:
-            continue
-        b = n // a
-        if b < low:
+    divisors = [d for d in range(1, math.isqrt(n) + 1) if n % d == 0]
+    pairs = sorted({(a, n // a) for d in divisors for a in (d, n // d)})  # increasing a
+    for a, b in pairs:
+        if a < low or b < low:
             continue
         distance = abs(math.log(a / b) - target)
         if distance <= math.log(max_ratio) + 1e-12 and (best is None or distance < best[0]):
@@ -162,22 +161,45 @@ class Grid:
 def grid_depths(surface: Surface, shape: tuple[int, int]) -> Grid:
     """Interpolate an ADT-triangulated cloud linearly onto a uniform grid over its bounding box.
 
-    Nodes outside the convex hull take the depth of the nearest vertex.
+    Nodes outside the convex hull take the depth of the nearest vertex (the smallest vertex
+    index among equally near ones). The grid is filled triangle by triangle
+    (:mod:`._raster`), on the vertices relabelled in the triangulator's (spatially coherent)
+    order; the nearest vertex of an outside node is found by a walk on the surface's own
+    triangle adjacency from the triangle of the nearest inside node of its row, then a
+    greedy walk on the Delaunay triangulation (no k-d tree is built).
     """
-    from scipy.spatial import cKDTree
+    from replication.surfaces._raster import raster, relabel
+    from replication.surfaces.interpolate import fill_nearest
 
-    uv = surface.projected()
-    depth = surface.points[:, surface.depth_axis]
-    lo, hi = uv.min(axis=0), uv.max(axis=0)
-    u = np.linspace(lo[0], hi[0], shape[0])
-    v = np.linspace(lo[1], hi[1], shape[1])
-    nodes = np.stack(np.meshgrid(u, v, indexing="ij"), axis=-1).reshape(-1, 2)
-    values = interpolate_linear(uv, surface.triangles, depth, nodes)
-    outside = np.isnan(values)
-    if outside.any():
-        _, nearest = cKDTree(uv).query(nodes[outside])
-        values[outside] = depth[nearest]
-    return Grid(u=u, v=v, depth=values.reshape(shape), filled=outside.reshape(shape))
+    order = surface.vertex_order
+    if order is None:
+        order = np.arange(surface.n_vertices, dtype=np.int32)
+    axes = np.array([*surface.projection_axes, surface.depth_axis])
+    xy, depth, triangles, (u_lo, u_hi, v_lo, v_hi) = relabel(surface.points, axes, surface.triangles, order)
+    u = np.linspace(u_lo, u_hi, shape[0])
+    v = np.linspace(v_lo, v_hi, shape[1])
+    owner, values = raster(xy, triangles, depth, u, v)
+    outside = owner < 0
+    rows, cols = np.nonzero(outside)
+    if rows.size:
+        start = _start_triangles(owner, rows, cols)
+        queries = np.column_stack([u[rows], v[cols]])
+        nearest = fill_nearest(xy, triangles, surface.neighbors, queries, start, ids=order)
+        values[rows, cols] = depth[nearest]
+    return Grid(u=u, v=v, depth=values, filled=outside)
+
+
+def _start_triangles(owner: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """For each outside node, the triangle of the nearest inside node of its row (of the
+    nearest row that has one): the hull is convex, so a row's inside nodes are contiguous."""
+    inside = owner >= 0
+    has = inside.any(axis=1)
+    usable = np.flatnonzero(has)
+    first = np.argmax(inside, axis=1)
+    last = owner.shape[1] - 1 - np.argmax(inside[:, ::-1], axis=1)
+    row = usable[np.clip(np.searchsorted(usable, rows), 0, usable.size - 1)]
+    col = np.where(cols < first[row], first[row], last[row])
+    return owner[row, col]
 
 
 @dataclass(frozen=True, eq=False)
@@ -287,12 +309,13 @@ def fit_nurbs(
     if triangulation is None:
         surface = adt(points, depth=depth, duplicates=duplicates, backend=backend, tie_rtol=tie_rtol)
     else:  # the triangulation fixes the frame and duplicate policy: it must be this cloud's
-        n = as_cloud(points).shape[0]
+        n = validated_cloud(points)[0].shape[0]
         if triangulation.n_input != n:
             raise InputError(f"the triangulation is of {triangulation.n_input} points, the cloud has {n}")
         surface = triangulation
-    uv = surface.projected()
-    extent = np.ptp(uv, axis=0)
+    extent = np.array(
+        [np.max(surface.points[:, a]) - np.min(surface.points[:, a]) for a in surface.projection_axes]
+    )
     if np.any(extent <= 0):
         raise DegenerateInputError(f"the projected cloud has zero extent {extent.tolist()}: no grid spans it")
     if net is None:

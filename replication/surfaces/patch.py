@@ -91,6 +91,10 @@ class NurbsPatch:
         """scipy ``NdBSpline`` of the homogeneous control points (w x, w y, w z, w)."""
         from scipy.interpolate import NdBSpline
 
-        w = self.weights[..., None]
-        coefficients = np.concatenate([self.control_points * w, w], axis=-1)
+        coefficients = np.empty((*self.weights.shape, 4))
+        if self.rational:
+            coefficients[..., :3] = self.control_points * self.weights[..., None]
+        else:  # the paper's case: the points themselves (times 1, exactly)
+            coefficients[..., :3] = self.control_points
+        coefficients[..., 3] = self.weights
         return NdBSpline((self.knots_u, self.knots_v), coefficients, (self.degree_u, self.degree_v))

@@ -1,0 +1,167 @@
+"""Linear interpolation of a triangulation onto a uniform grid, triangle by triangle (numba).
+
+The NURBS baseline samples the cloud's triangulation at as many grid nodes as the cloud has
+points (paper section 3.1). Walking from node to node is a chain of dependent memory reads
+through a large mesh; this kernel instead visits the triangles in order and fills the grid
+nodes each one covers, so the reads are independent and the work is proportional to
+triangles + nodes. The candidates are the nodes of the triangle's bounding box in grid
+indices (widened by ``_SLACK`` steps, far more than the rounding of the index computation),
+each tested with the exact orientation predicate. A node on an edge or a vertex belongs to the first
+triangle (lowest index) that contains it; its value is the same barycentric formula as
+:func:`.interpolate.interpolate_linear`. Nodes outside the triangulation stay unassigned
+(-1).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from replication.surfaces._predicates import orient
+from replication.surfaces._threads import frozen
+
+__all__ = ["raster", "relabel"]
+
+#: Slack (in grid steps) of the candidate range against the rounding of its computation.
+_SLACK = 1e-6
+#: The triangles are cut into this many runs, rasterized on the thread pool; where runs
+#: claim the same node (on a shared edge) the lower run wins, as in one sequential pass.
+_RUNS = 4
+
+
+@njit(cache=True, inline="always")
+def _area2(ax, ay, bx, by, cx, cy):
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+
+
+@njit(cache=True, nogil=True)
+def _raster(xy, tri, values, u, v, lo, hi, owner, out):
+    """Fill ``out[i, j]`` (the value at ``(u[i], v[j])``) and ``owner[i, j]`` (its triangle)
+    from the triangles lo..hi-1. ``u`` and ``v`` are increasing and uniformly spaced;
+    ``owner`` must hold -1 on entry."""
+    mu = u.shape[0]
+    mv = v.shape[0]
+    u0 = u[0]
+    v0 = v[0]
+    iu = (mu - 1) / (u[mu - 1] - u0)
+    iv = (mv - 1) / (v[mv - 1] - v0)
+    for t in range(lo, hi):
+        a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
+        ax, ay, bx, by, cx, cy = xy[a, 0], xy[a, 1], xy[b, 0], xy[b, 1], xy[c, 0], xy[c, 1]
+        i_lo = max(0, int(math.ceil((min(ax, bx, cx) - u0) * iu - _SLACK)))
+        i_hi = min(mu - 1, int(math.floor((max(ax, bx, cx) - u0) * iu + _SLACK)))
+        j_lo = max(0, int(math.ceil((min(ay, by, cy) - v0) * iv - _SLACK)))
+        j_hi = min(mv - 1, int(math.floor((max(ay, by, cy) - v0) * iv + _SLACK)))
+        den = 0.0
+        for i in range(i_lo, i_hi + 1):
+            px = u[i]
+            for j in range(j_lo, j_hi + 1):
+                if owner[i, j] >= 0:
+                    continue
+                py = v[j]
+                if (
+                    orient(ax, ay, bx, by, px, py) < 0.0
+                    or orient(bx, by, cx, cy, px, py) < 0.0
+                    or orient(cx, cy, ax, ay, px, py) < 0.0
+                ):
+                    continue
+                if den == 0.0:
+                    den = _area2(ax, ay, bx, by, cx, cy)
+                la = _area2(px, py, bx, by, cx, cy) / den
+                lb = _area2(ax, ay, px, py, cx, cy) / den
+                lc = _area2(ax, ay, bx, by, px, py) / den
+                owner[i, j] = t
+                out[i, j] = la * values[a] + lb * values[b] + lc * values[c]
+
+
+@njit(cache=True, nogil=True)
+def _combine(owners, outs, lo, hi):
+    """Rows lo..hi-1: a node no earlier run claimed takes the next run's triangle and value."""
+    for r in range(1, len(owners)):
+        owner, out, later, values = owners[0], outs[0], owners[r], outs[r]
+        for i in range(lo, hi):
+            for j in range(owner.shape[1]):
+                if owner[i, j] < 0 and later[i, j] >= 0:
+                    owner[i, j] = later[i, j]
+                    out[i, j] = values[i, j]
+
+
+def raster(xy: np.ndarray, tri: np.ndarray, values: np.ndarray, u: np.ndarray, v: np.ndarray):
+    """``(owner, out)``: for each node of the grid ``u x v``, the first triangle containing it
+    (-1 outside) and the interpolated value there (undefined outside)."""
+    from replication.surfaces._threads import run
+
+    shape = (u.shape[0], v.shape[0])
+    m = tri.shape[0]
+    runs = _RUNS if m >= 100_000 else 1
+    edges = [m * r // runs for r in range(runs + 1)]
+    owners = [np.full(shape, -1, dtype=np.int32) for _ in range(runs)]
+    outs = [np.empty(shape) for _ in range(runs)]
+    run([
+        (lambda r=r: _raster(xy, tri, values, u, v, edges[r], edges[r + 1], owners[r], outs[r]))
+        for r in range(runs)
+    ])  # fmt: skip
+    if runs > 1:
+        rows = [shape[0] * r // runs for r in range(runs + 1)]
+        owned, valued = tuple(owners), tuple(outs)
+        run([(lambda r=r: _combine(owned, valued, rows[r], rows[r + 1])) for r in range(runs)])
+    return owners[0], outs[0]
+
+
+@njit(cache=True, nogil=True)
+def _gather(points, axes, order, lo, hi, position, xy, values, bounds):
+    """Points lo..hi-1 of ``order``; ``bounds``: their (min u, max u, min v, max v)."""
+    bounds[0] = np.inf
+    bounds[1] = -np.inf
+    bounds[2] = np.inf
+    bounds[3] = -np.inf
+    for k in range(lo, hi):
+        i = order[k]
+        position[i] = k
+        u = points[i, axes[0]]
+        v = points[i, axes[1]]
+        xy[k, 0] = u
+        xy[k, 1] = v
+        values[k] = points[i, axes[2]]
+        bounds[0] = min(bounds[0], u)
+        bounds[1] = max(bounds[1], u)
+        bounds[2] = min(bounds[2], v)
+        bounds[3] = max(bounds[3], v)
+
+
+@njit(cache=True, nogil=True)
+def _renumber(triangles, position, lo, hi, tri):
+    for t in range(lo, hi):
+        for j in range(3):
+            tri[t, j] = position[triangles[t, j]]
+
+
+def relabel(points: np.ndarray, axes: np.ndarray, triangles: np.ndarray, order: np.ndarray):
+    """``(xy, values, tri, bounds)``: the (u, v) and depth (columns ``axes``) of vertex
+    ``order[k]`` as point k, the triangles relabelled so, and (min u, max u, min v, max v).
+
+    Kernels that visit every triangle then read the vertices of nearby triangles from nearby
+    memory (the triangulator's order is block by block, in sweep order), which halves the
+    time of a grid of a million nodes. Runs in fixed pieces on the thread pool.
+    """
+    from replication.surfaces._threads import run
+
+    points, axes, triangles, order = frozen(points), frozen(axes), frozen(triangles, np.int32), frozen(order)
+    m, count = order.shape[0], triangles.shape[0]
+    pieces = _RUNS if count >= 100_000 else 1
+    position = np.empty(points.shape[0], dtype=np.int32)
+    xy = np.empty((m, 2))
+    values = np.empty(m)
+    tri = np.empty((count, 3), dtype=np.int32)
+    cut = [m * r // pieces for r in range(pieces + 1)]
+    bounds = np.empty((pieces, 4))
+    run([
+        (lambda r=r: _gather(points, axes, order, cut[r], cut[r + 1], position, xy, values, bounds[r]))
+        for r in range(pieces)
+    ])  # fmt: skip
+    cut = [count * r // pieces for r in range(pieces + 1)]
+    run([(lambda r=r: _renumber(triangles, position, cut[r], cut[r + 1], tri)) for r in range(pieces)])
+    lo, hi = bounds.min(axis=0), bounds.max(axis=0)
+    return xy, values, tri, (float(lo[0]), float(hi[1]), float(lo[2]), float(hi[3]))

@@ -1,0 +1,73 @@
+"""A small thread pool for the compiled kernels (they release the GIL while they run).
+
+The number of threads is numba's (``numba.set_num_threads``, ``NUMBA_NUM_THREADS``), so one
+setting governs every parallel kernel of the package. Work is always split into the same
+pieces whatever the thread count, and each piece writes only its own output, so results
+never depend on how many threads ran them.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+import numpy as np
+
+__all__ = ["frozen", "run", "threads"]
+
+_pool: ThreadPoolExecutor | None = None
+_lock = threading.Lock()
+
+
+def frozen(a: np.ndarray, dtype=None) -> np.ndarray:
+    """``a`` as a C-contiguous read-only array (a view when it already is one).
+
+    numba compiles a separate version of a kernel for writable and read-only arrays; the
+    package's kernels take their inputs read-only (a Surface's arrays are), so each keeps
+    one compiled signature whoever calls it.
+    """
+    a = np.ascontiguousarray(a, dtype=dtype)
+    if a.flags.writeable:
+        a = a.view()
+        a.flags.writeable = False
+    return a
+
+
+def threads() -> int:
+    """numba's thread count (the threading layer is started on first use)."""
+    import numba
+
+    return int(numba.get_num_threads())
+
+
+def run(tasks: Sequence[Callable[[], Any]]) -> list[Any]:
+    """Run the callables, this thread and ``threads() - 1`` pool threads taking them in order."""
+    if len(tasks) < 2:
+        return [task() for task in tasks]
+    count = min(len(tasks), threads())
+    if count < 2:
+        return [task() for task in tasks]
+    global _pool
+    with _lock:
+        if _pool is None or _pool._max_workers < count - 1:
+            _pool = ThreadPoolExecutor(max_workers=count - 1, thread_name_prefix="replication-kernels")
+        pool = _pool
+    results: list[Any] = [None] * len(tasks)
+    queue = iter(range(len(tasks)))
+    take = threading.Lock()
+
+    def work() -> None:
+        while True:
+            with take:
+                k = next(queue, None)
+            if k is None:
+                return
+            results[k] = tasks[k]()
+
+    helpers = [pool.submit(work) for _ in range(count - 1)]
+    work()
+    for helper in helpers:
+        helper.result()
+    return results

@@ -1,0 +1,101 @@
+"""Point location, linear interpolation and nearest vertices on ADT triangulations."""
+
+import numpy as np
+import pytest
+from scipy.interpolate import LinearNDInterpolator
+from scipy.spatial import Delaunay, cKDTree
+
+from geometry import orient_q
+from replication.surfaces import adt, random_cloud
+from replication.surfaces.interpolate import interpolate_linear, locate, nearest_vertices, triangle_neighbors
+
+
+@pytest.fixture(scope="module")
+def surface():
+    return adt(random_cloud(400, rng=3))
+
+
+def _queries(uv, rng, k=500):
+    lo, hi = uv.min(axis=0), uv.max(axis=0)
+    span = hi - lo
+    return np.vstack([rng.uniform(lo - 0.2 * span, hi + 0.2 * span, size=(k, 2)), uv[:50]])
+
+
+def test_locate_agrees_with_brute_force(surface):
+    uv = surface.projected()
+    queries = _queries(uv, np.random.default_rng(1))
+    found = locate(uv, surface.triangles, queries, surface.neighbors)
+    assert np.array_equal(found, locate(uv, surface.triangles, queries))  # own vs sorted adjacency
+    inside = Delaunay(uv).find_simplex(queries) >= 0
+    assert np.array_equal(found >= 0, inside)
+    for q, t in zip(queries[found >= 0], found[found >= 0]):
+        a, b, c = uv[surface.triangles[t]].tolist()
+        assert orient_q(a, b, q) >= 0 and orient_q(b, c, q) >= 0 and orient_q(c, a, q) >= 0
+
+
+def test_linear_interpolation_matches_scipy(surface):
+    uv = surface.projected()
+    depth = surface.points[:, surface.depth_axis]
+    queries = _queries(uv, np.random.default_rng(2))
+    ours = interpolate_linear(uv, surface.triangles, depth, queries, neighbors=surface.neighbors)
+    ref = LinearNDInterpolator(Delaunay(uv), depth)(queries)
+    np.testing.assert_allclose(ours, ref, rtol=1e-12, atol=1e-12)
+    assert np.array_equal(np.isnan(ours), np.isnan(ref))
+    assert np.array_equal(ours[-50:], depth[:50])  # exactly the vertex values at the vertices
+
+
+def test_nearest_vertex_outside_is_the_nearest_point(surface):
+    uv = surface.projected()
+    depth = surface.points[:, surface.depth_axis]
+    queries = _queries(uv, np.random.default_rng(3))
+    found, filled = interpolate_linear(
+        uv, surface.triangles, depth, queries, neighbors=surface.neighbors, nearest_outside=True, located=True
+    )
+    outside = found < 0
+    assert outside.sum() > 100
+    _, nearest = cKDTree(uv).query(queries[outside])
+    np.testing.assert_array_equal(filled[outside], depth[nearest])  # continuous cloud: no ties
+
+
+def test_nearest_vertex_tie_takes_the_smallest_index():
+    """Lattice points at equal distance: the first of them in the cloud wins, from any start."""
+    g = np.indices((6, 5)).reshape(2, -1).T.astype(float)
+    cloud = np.column_stack([g, np.arange(len(g), dtype=float)])
+    surface = adt(cloud, depth="z")
+    uv = surface.projected()
+    queries = np.array([[-1.0, 2.5], [2.5, -3.0], [7.0, 1.5], [2.5, 6.0]])  # equidistant from two points
+    for start in range(surface.n_triangles):
+        near = nearest_vertices(uv, surface.triangles, surface.neighbors, queries, np.full(4, start))
+        d = ((uv[None, :, :] - queries[:, None, :]) ** 2).sum(-1)
+        expected = [int(np.flatnonzero(row == row.min()).min()) for row in d]
+        assert near.tolist() == expected
+
+
+def test_triangle_neighbors_of_any_mesh():
+    tri = np.array([[0, 1, 2], [2, 1, 3], [3, 4, 2]])
+    nbr = triangle_neighbors(tri)
+    assert nbr.dtype == np.int32
+    assert nbr.tolist() == [[-1, 1, -1], [0, -1, 2], [-1, -1, 1]]
+
+
+@pytest.mark.filterwarnings("ignore::replication.errors.DuplicatePointsWarning")
+@pytest.mark.parametrize("step", [None, 1.0])
+def test_grid_depths_match_linear_interpolation_and_nearest_points(step):
+    """The NURBS grid: linear interpolation inside the hull, the nearest point's depth outside
+    (the first of equally near points)."""
+    from replication.surfaces.nurbs import grid_depths
+
+    for seed in range(12):
+        surface = adt(random_cloud(60 + 37 * seed, step=step, rng=seed))
+        shape = (7 + seed % 5, 9 + seed % 3)
+        grid = grid_depths(surface, shape)
+        uv = surface.projected()
+        depth = surface.points[:, surface.depth_axis]
+        nodes = np.stack(np.meshgrid(grid.u, grid.v, indexing="ij"), axis=-1).reshape(-1, 2)
+        ref = interpolate_linear(uv, surface.triangles, depth, nodes)
+        outside = np.isnan(ref)
+        assert np.array_equal(grid.filled.ravel(), outside)
+        np.testing.assert_allclose(grid.depth.ravel()[~outside], ref[~outside], rtol=1e-14, atol=1e-14)
+        d = ((uv[None, :, :] - nodes[outside][:, None, :]) ** 2).sum(-1)
+        first = np.array([np.flatnonzero(row == row.min()).min() for row in d], dtype=int)
+        assert np.array_equal(grid.depth.ravel()[outside], depth[first])

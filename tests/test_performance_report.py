@@ -1,0 +1,201 @@
+"""performance.md from synthetic asv results: spread, single-sample runs, failures, the comparison."""
+
+import json
+import math
+import re
+
+import numpy as np
+import pytest
+
+from replication.report.asv_compare import is_different, mann_whitney_u, verdict
+from replication.report.asv_results import load_asv_results
+from replication.report.performance import format_cell, render_performance
+
+COLUMNS = [
+    "result", "params", "version", "started_at", "duration", "stats_ci_99_a", "stats_ci_99_b",
+    "stats_q_25", "stats_q_75", "stats_number", "stats_repeat", "samples", "profile",
+]  # fmt: skip
+BENCHMARKS = {
+    "b.T.time_adt": {"type": "time", "unit": "seconds", "param_names": ["n"], "params": [["9", "200"]]},
+    "b.time_plain": {"type": "time", "unit": "seconds", "param_names": [], "params": []},
+    "b.time_broken": {"type": "time", "unit": "seconds", "param_names": [], "params": []},
+    "b.track_bytes": {"type": "track", "unit": "bytes", "param_names": [], "params": []},
+}
+DAY = 86_400_000  # ms
+
+
+def timing(values, *, samples=None, repeat=10, ci=None, quartiles=None):
+    """One asv row for a timing: values (per parameter), and stats as asv_runner computes them."""
+    n = len(values)
+    quartiles = quartiles or [(v * 0.95, v * 1.05) for v in values]
+    ci = ci or [(v * 0.9, v * 1.1) for v in values]
+    row = [values, [["9", "200"]] if n == 2 else [], "v1", 1_700_000_000_000, 2.0]
+    row += [[c[0] for c in ci], [c[1] for c in ci], [q[0] for q in quartiles], [q[1] for q in quartiles]]
+    row += [[1] * n, [repeat] * n]
+    if samples is not None:
+        row.append(samples)
+    return row
+
+
+def write_results(tmp_path, commits, machine="m1"):
+    """asv's layout: benchmarks.json and one file per commit; commits: [(hash, day, results)]."""
+    results = tmp_path / "results"
+    (results / machine).mkdir(parents=True, exist_ok=True)
+    (results / "benchmarks.json").write_text(json.dumps({**BENCHMARKS, "version": 2}), encoding="utf-8")
+    (results / machine / "machine.json").write_text(
+        json.dumps({"machine": machine, "version": 1}), encoding="utf-8"
+    )
+    for commit, day, rows in commits:
+        data = {
+            "commit_hash": commit, "env_name": "existing-py", "date": 1_700_000_000_000 + day * DAY,
+            "params": {"machine": machine}, "result_columns": COLUMNS, "results": rows, "version": 2,
+        }  # fmt: skip
+        (results / machine / f"{commit[:8]}-existing-py.json").write_text(json.dumps(data), encoding="utf-8")
+    return results
+
+
+def spread_rows():
+    rng = np.random.default_rng(0)
+    slow = list(2e-3 + 1e-5 * rng.random(10))  # clearly slower: disjoint samples
+    fast = list(1e-3 + 1e-5 * rng.random(10))
+    return fast, slow
+
+
+@pytest.fixture
+def history(tmp_path):
+    fast, slow = spread_rows()
+    full_a = {
+        "b.T.time_adt": timing([1e-4, 1e-3], samples=[[1e-4] * 10, fast]),
+        "b.time_plain": timing([1e-3], quartiles=[(0.9e-3, 1.1e-3)]),  # ±10 %
+        "b.time_broken": [None, [], "v1", 1_700_000_000_000, 0.1],  # failed: asv stores one null
+        "b.track_bytes": [[1000], [], "v1"],
+    }
+    full_b = {
+        "b.T.time_adt": timing([1e-4, float(np.median(slow))], samples=[[1e-4] * 10, slow]),
+        "b.time_plain": [[3e-3], [], "v1", 1_700_000_000_000, 2.0],  # no statistics recorded
+        "b.time_broken": timing([5e-4], repeat=1, ci=[(-math.inf, math.inf)]),  # one sample, in a full run
+        "b.track_bytes": [[2000], [], "v1"],
+    }
+    quick = {  # asv run --quick: a single sample of everything, no warm-up
+        "b.T.time_adt": timing([3e-4, float("nan")], repeat=1, ci=[(-math.inf, math.inf)] * 2),
+        "b.time_plain": timing([9e-3], repeat=1, ci=[(-math.inf, math.inf)]),
+    }
+    return write_results(
+        tmp_path, [("aaaaaaaa11", 1, full_a), ("bbbbbbbb22", 2, full_b), ("cccccccc33", 3, quick)]
+    )
+
+
+def _section(text, title):
+    return text.split(title, 1)[1].split("\n## ", 1)[0]
+
+
+def test_loader_reads_statuses_samples_and_stats(history):
+    frame = load_asv_results(history)
+    adt = frame[(frame.benchmark == "b.T.time_adt") & (frame.commit == "aaaaaaaa")]
+    assert list(adt.params) == ["n=9", "n=200"] and list(adt.repeat) == [10, 10]
+    assert adt.samples.iloc[1] == tuple(spread_rows()[0])
+    broken = frame[(frame.benchmark == "b.time_broken") & (frame.commit == "aaaaaaaa")]
+    assert list(broken.status) == ["failed"]
+    skipped = frame[(frame.commit == "cccccccc") & (frame.params == "n=200")]
+    assert list(skipped.status) == ["skipped"]
+    plain_b = frame[(frame.benchmark == "b.time_plain") & (frame.commit == "bbbbbbbb")].iloc[0]
+    assert plain_b.value == 3e-3 and math.isnan(plain_b["repeat"]) and plain_b.samples is None
+
+
+def test_cells_show_spread_single_samples_and_failures():
+    base = {"status": "ok", "kind": "time", "unit": "seconds", "value": 1.23e-3, "repeat": 10}
+    assert format_cell({**base, "q_25": 1.23e-3 * 0.96, "q_75": 1.23e-3 * 1.04}) == "1.23 ms ±4 %"
+    assert format_cell({**base, "q_25": 1.23e-3, "q_75": 1.23e-3 * 1.01}) == "1.23 ms ±0.5 %"
+    assert format_cell({**base, "repeat": 1, "q_25": 1.23e-3, "q_75": 1.23e-3}) == "1.23 ms (1 sample)"
+    nan = float("nan")
+    assert format_cell({**base, "repeat": nan, "q_25": nan, "q_75": nan}) == "1.23 ms (no spread recorded)"
+    assert format_cell({**base, "status": "failed"}) == "failed"
+    assert format_cell({**base, "status": "skipped"}) == "n/a"
+    assert format_cell({**base, "kind": "track", "unit": "bytes", "value": 2000.0}) == "2,000 B"
+
+
+def test_quick_runs_are_kept_apart_from_measured_ones(history, tmp_path):
+    text = render_performance(history, tmp_path / "out").read_text(encoding="utf-8")
+    measured = _section(text, "## Machine `m1`")
+    quick = _section(text, "## Single-sample runs (`asv run --quick`) on machine `m1`")
+    assert "`cccccccc`" not in measured and "`cccccccc`" in quick  # never beside measured columns
+    assert "`aaaaaaaa` (" in measured and "`bbbbbbbb` (" in measured
+    assert "| – | 1 ms ±10 % | 3 ms (no spread recorded) |" in measured
+    assert "| – | failed | 500 µs (1 sample) |" in measured  # a single sample inside a full run
+    assert "| – | 1,000 B | 2,000 B |" in measured
+    assert "| n=200 | n/a |" in quick and "9 ms (1 sample)" in quick
+    assert "`aaaaaaaa` (2023-11-15, n=10)" in measured  # samples per value in the column head
+
+
+def test_comparison_of_the_two_latest_measured_commits(history, tmp_path):
+    text = render_performance(history, tmp_path / "out").read_text(encoding="utf-8")
+    comparison = _section(text, "## Comparison `aaaaaaaa` → `bbbbbbbb` (machine `m1`)")
+    rows = {tuple(c.strip() for c in line.split("|")[1:3]): line for line in comparison.splitlines()}
+    fast, slow = spread_rows()
+    ratio = np.median(slow) / 1e-3
+    slower = rows[("`b.T.time_adt`", "n=200")]
+    assert f"| {ratio:.2f} | slower | U test: p = " in slower
+    p = float(re.search(r"p = ([0-9.e-]+)", slower).group(1))
+    assert p == pytest.approx(mann_whitney_u(fast, slow)[1], rel=0.05) and p < 0.002
+    assert "| 1.00 | same |" in rows[("`b.T.time_adt`", "n=9")]
+    assert "| 3.00 | cannot tell |" in rows[("`b.time_plain`", "–")]  # no statistics on one side
+    assert "| failed |" in rows[("`b.time_broken`", "–")]
+    assert "| 2.00 | higher |" in rows[("`b.track_bytes`", "–")]
+    assert "1 slower, 1 higher, 1 same, 1 cannot tell, 1 failed" in comparison
+
+
+def test_explicit_pair_and_no_pair(history, tmp_path):
+    text = render_performance(history, tmp_path / "out", compare=("bbbbbbbb22", "aaaaaaaa")).read_text(
+        encoding="utf-8"
+    )
+    assert "## Comparison `bbbbbbbb` → `aaaaaaaa`" in text and "| faster |" in text
+    text = render_performance(history, tmp_path / "out", compare=("aaaaaaaa", "cccccccc")).read_text(
+        encoding="utf-8"
+    )  # a quick run is not compared
+    assert "## Comparison" not in text and "no measured results of `aaaaaaaa` or `cccccccc`" in text
+    one = write_results(tmp_path / "one", [("dddddddd", 1, {"b.track_bytes": [[5], [], "v1"]})])
+    text = render_performance(one, tmp_path / "out1").read_text(encoding="utf-8")
+    assert "## Comparison" not in text and "| – | 5 B |" in text
+
+
+def test_noise_beyond_the_factor_is_not_a_change():
+    a = [1e-3 * (1 + k / 10) for k in range(10)]  # 1.0 ... 1.9 ms
+    b = [0.85 * x for x in a]  # the medians differ by 15 %...
+    row = {"status": "ok", "kind": "time", "repeat": 10, "ci_low": 0.0, "ci_high": 1.0}
+    v = verdict({**row, "value": np.median(a), "samples": a}, {**row, "value": np.median(b), "samples": b})
+    assert v.ratio < 1 / 1.1 and v.word == "noise" and v.difference.p > 0.002  # ...but the U test says no
+    # one sample each: asv would call a 0.65x ratio a change; here nobody can tell
+    one = {"status": "ok", "kind": "time", "repeat": 1, "ci_low": -math.inf, "ci_high": math.inf}
+    assert verdict({**one, "value": 1.0}, {**one, "value": 0.65}).word == "cannot tell"
+    # no samples: the 99 % confidence intervals decide
+    ci = {"status": "ok", "kind": "time", "repeat": 10, "samples": None}
+    apart = verdict(
+        {**ci, "value": 1.0, "ci_low": 0.9, "ci_high": 1.1},
+        {**ci, "value": 2.0, "ci_low": 1.8, "ci_high": 2.2},
+    )
+    overlap = verdict(
+        {**ci, "value": 1.0, "ci_low": 0.5, "ci_high": 1.9},
+        {**ci, "value": 2.0, "ci_low": 1.8, "ci_high": 2.2},
+    )
+    assert (apart.word, apart.difference.test) == ("slower", "99 % CIs") and overlap.word == "noise"
+
+
+@pytest.mark.parametrize("sizes", [(6, 6), (10, 10), (5, 12), (25, 30)])
+def test_significance_agrees_with_asv(sizes):
+    asv_stats = pytest.importorskip("asv._stats")
+    rng = np.random.default_rng(sizes)
+    for shift in (0.0, 0.3, 1.0, 3.0):
+        x = list(np.round(rng.normal(size=sizes[0]), 1))  # rounded: ties happen
+        y = list(np.round(rng.normal(shift, size=sizes[1]), 1))
+        assert mann_whitney_u(x, y) == pytest.approx(asv_stats.mann_whitney_u(x, y), rel=1e-9)
+        stats = {"ci_99_a": min(x), "ci_99_b": max(x)}, {"ci_99_a": min(y), "ci_99_b": max(y)}
+        for samples in ((x, y), (None, None)):
+            ours = is_different(*samples, tuple(stats[0].values()), tuple(stats[1].values()))
+            assert ours.different == asv_stats.is_different(*samples, *stats)
+
+
+def test_bad_arguments():
+    with pytest.raises(ValueError, match="factor"):
+        verdict({"status": "ok"}, {"status": "ok"}, factor=0.5)
+    with pytest.raises(ValueError, match="sizes 0 and 2"):
+        mann_whitney_u([], [1.0, 2.0])
