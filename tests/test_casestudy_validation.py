@@ -71,3 +71,16 @@ def test_other_runs_are_flagged(tmp_path):
     write_study(tmp_path, ga_sph=1.40)
     write_csv(pd.DataFrame([{"run": 0, "best_N": 4.50}]), tmp_path / "data" / "casestudy_runs.csv")
     assert "may not be the ones SPH scored" in validation_section(tmp_path)
+
+
+def test_the_optimum_claim_says_which_fitness_holds_it(tmp_path):
+    from replication.report.casestudy_validation import OPTIMUM_CLAIM, fitness_note
+
+    assert fitness_note(tmp_path, "the bucket takes less force than the flat plate") == ""
+    alone = fitness_note(tmp_path, OPTIMUM_CLAIM)
+    assert "thin-sheet model's" in alone and "SPH has not checked it" in alone and "model only" in alone
+    write_study(tmp_path, ga_sph=1.40)
+    text = fitness_note(tmp_path, OPTIMUM_CLAIM)
+    assert "by SPH it **does not hold**: best GA winner 1.40, bucket 1.89" in text
+    write_study(tmp_path, ga_sph=1.95)
+    assert "by SPH it **holds**" in fitness_note(tmp_path, OPTIMUM_CLAIM)

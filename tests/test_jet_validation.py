@@ -3,6 +3,7 @@ engine (CI-sized: three surfaces, coarse particles) from the command line, with 
 
 import dataclasses
 import json
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -169,8 +170,13 @@ def test_the_study_runs_end_to_end_on_three_surfaces_and_reruns_from_its_cache(t
     provenance = json.loads((out / "data" / "jet_validation_provenance.json").read_text())
     assert provenance["simulation_seconds"] == 0
 
+    from replication.casestudy.sph_batch import CACHE_ENV
     from replication.cli.validate_run import reproduce_stage
 
+    elsewhere = tmp_path / "elsewhere"  # no .sph-cache here: the environment names the cache
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    monkeypatch.setenv(CACHE_ENV, str(cache))
     path, note = reproduce_stage(tmp_path / "reproduced", True, "replication reproduce --quick")
     assert note == "" and path.is_file()
     staged = pd.read_csv(tmp_path / "reproduced" / "data" / "jet_validation_surfaces.csv").set_index(
@@ -180,12 +186,51 @@ def test_the_study_runs_end_to_end_on_three_surfaces_and_reruns_from_its_cache(t
 
 
 def test_reproduce_skips_the_study_without_a_filled_cache(tmp_path, monkeypatch):
+    from replication.casestudy.sph_batch import CACHE_ENV
     from replication.cli.validate_run import reproduce_stage
 
     monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv(CACHE_ENV, raising=False)
     path, note = reproduce_stage(tmp_path / "out", False, "replication reproduce")
     assert path is None and ("run `replication validate-jet` first" in note or "not installed" in note)
     assert not (tmp_path / "out").exists()
+
+
+def test_the_cache_is_the_environments_or_the_working_directorys(tmp_path, monkeypatch):
+    from replication.casestudy.sph_batch import CACHE_ENV, default_cache_dir
+
+    monkeypatch.delenv(CACHE_ENV, raising=False)
+    assert default_cache_dir() == Path(".sph-cache")
+    monkeypatch.setenv(CACHE_ENV, "")  # empty: unset
+    assert default_cache_dir() == Path(".sph-cache")
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "cache"))
+    assert default_cache_dir() == tmp_path / "cache"
+
+
+def test_without_a_cache_reproduce_re_renders_the_saved_study_and_leaves_its_data(
+    small_study, tmp_path, monkeypatch
+):
+    """A fresh clone has the committed data but no SPH cache: the stage renders the report from
+    those CSV files and writes none of them (nor removes any)."""
+    from replication.casestudy.sph_batch import CACHE_ENV
+    from replication.cli.validate_run import reproduce_stage
+
+    results, _ = small_study
+    out = tmp_path / "reports"
+    save_jet_validation_data(results, out)
+    before = {p.name: p.read_bytes() for p in (out / "data").iterdir()}
+    monkeypatch.chdir(tmp_path)  # no .sph-cache here
+    monkeypatch.delenv(CACHE_ENV, raising=False)
+    path, note = reproduce_stage(out, False, "replication reproduce")
+    assert path == out / "jet_validation.md" and "re-rendered from the saved data" in note
+    assert {p.name: p.read_bytes() for p in (out / "data").iterdir()} == before
+    text = path.read_text()
+    overall = results.agreement.iloc[0]
+    assert f"Spearman {overall['spearman']:.2f}" in text
+    assert (out / "figures" / "jet_validation_scatter.png").is_file()
+    (out / "data" / "jet_validation_noise.csv").unlink()  # incomplete data: not a study, skipped
+    path, note = reproduce_stage(out, False, "replication reproduce")
+    assert path is None and "validate-jet" in note
 
 
 @needs_engine

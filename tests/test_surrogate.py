@@ -85,3 +85,38 @@ def test_calibration_needs_enough_positive_data():
     surfaces, force = synthetic(2)
     with pytest.raises(InputError, match="at least 3"):
         calibrate(surfaces, [1.0, 1.0], force, {"reimpact": [0.0]})
+
+
+def test_the_surrogate_fitted_to_a_lossy_model_finds_its_losses_and_ranks_the_held_out_half(tmp_path):
+    """Known answer: 'SPH' here is the thin-sheet model with known losses (on the fit's grid);
+    the fit on the calibration half recovers them and ranks the held-out half perfectly."""
+    from replication.casestudy.ga import GAConfig
+    from replication.casestudy.jet import JetConfig, SheetLosses, jet_force
+    from replication.experiments.jet_surfaces import random_lattice_surfaces, reference_surfaces
+    from replication.experiments.jet_surrogate import departures, fit_surrogate
+
+    jet = JetConfig()
+    surfaces = reference_surfaces(angles_deg=(), bowl_depths_mm=(13.0,)) + random_lattice_surfaces(
+        6, GAConfig(), rng=3
+    )
+    truth = SheetLosses(crease=1.0, reimpact=0.4)
+    rows = []
+    for s in surfaces:
+        model = jet_force(s.points, s.triangles, jet).axial_force / jet.momentum_flux
+        sph = jet_force(s.points, s.triangles, jet, losses=truth).axial_force / jet.momentum_flux
+        rows.append({"surface": s.name, "family": s.family, "stratum": s.stratum, "model_over_rho_q_v": model,
+                     SPH_COLUMN: 1.05 * sph, "sph_status": "ok", "model_over_sph": model / (1.05 * sph),
+                     "model_parcels": 1})  # fmt: skip
+    table = pd.DataFrame(rows)
+    fit = fit_surrogate(table, surfaces, jet, resamples=200, rng=np.random.default_rng(1), split_seed=[11, 2])
+    params = fit["surrogate_params"].set_index("parameter")["value"]
+    assert params["crease"] == pytest.approx(1.0) and params["reimpact"] == pytest.approx(0.4)
+    assert params["fit: common factor SPH / surrogate"] == pytest.approx(1.05)
+    held = fit["surrogate_agreement"].set_index("scope").loc[HELD_OUT]
+    assert held["n"] >= 3 and held["spearman"] == pytest.approx(1.0)
+    per = fit["surrogate_surfaces"]
+    assert set(per["half"]) == {CALIBRATION, HELD_OUT}
+    assert departures(table, surfaces)["feature"].tolist()[0] == "model force / rho Q V"
+    # too few SPH scores to fit: no surrogate, said by None
+    few = table.assign(sph_status=["ok"] * 2 + ["missing"] * (len(table) - 2))
+    assert fit_surrogate(few, surfaces, jet, resamples=10, rng=np.random.default_rng(1), split_seed=1) is None

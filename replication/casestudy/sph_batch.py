@@ -42,7 +42,9 @@ from replication.errors import InputError, SimulationError
 
 __all__ = [
     "CACHE_FORMAT",
+    "CACHE_ENV",
     "DEFAULT_CACHE_DIR",
+    "default_cache_dir",
     "Scored",
     "SurfaceTask",
     "cache_key",
@@ -54,6 +56,9 @@ __all__ = [
 
 #: Where the cache lives unless the caller says otherwise (relative to the working directory).
 DEFAULT_CACHE_DIR = ".sph-cache"
+#: Environment variable naming the SPH cache (``validate-jet`` and ``reproduce``), e.g. one
+#: kept in another checkout: the cache is gitignored and hours of SPH to refill.
+CACHE_ENV = "REPLICATION_SPH_CACHE"
 #: Version of the cache layout (part of the key).
 CACHE_FORMAT = 1
 #: Files of a finished simulation that are dropped from its entry (regenerable, large).
@@ -146,6 +151,12 @@ def cache_key(
     digest.update(np.ascontiguousarray(points, dtype="<f8").tobytes())
     digest.update(np.ascontiguousarray(triangles, dtype="<i8").tobytes())
     return digest.hexdigest()
+
+
+def default_cache_dir() -> Path:
+    """The SPH cache the commands use: ``$REPLICATION_SPH_CACHE`` if set (and not empty), else
+    ``.sph-cache`` in the working directory."""
+    return Path(os.environ.get(CACHE_ENV) or DEFAULT_CACHE_DIR)
 
 
 def entry_path(cache_dir: str | os.PathLike[str], key: str) -> Path:

@@ -164,6 +164,8 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
             if path is None:
                 print(f"  [skipped] {name}: {note}")
                 continue
+            if note:  # no SPH cache here: the saved (committed) data re-rendered, left as they are
+                print(f"  [note] {name}: {note}")
         else:
             path = run_and_report(plan, ga_args)[1]
         written = finish_reports(out)  # after each stage, so an interrupted run leaves them consistent

@@ -33,14 +33,14 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
 
     from replication.casestudy.evaluate import executor
     from replication.casestudy.sph import require_engine
-    from replication.casestudy.sph_batch import DEFAULT_CACHE_DIR
+    from replication.casestudy.sph_batch import default_cache_dir
     from replication.errors import SimulationError
     from replication.experiments.jet_validation import run_validation
     from replication.report.jet_validation import render_jet_validation, save_jet_validation_data
 
     require_engine()
     config = _config(args)
-    cache = Path(args.cache_dir or DEFAULT_CACHE_DIR)
+    cache = Path(args.cache_dir) if args.cache_dir else default_cache_dir()
     print(f"SPH cache: {cache} (a rerun skips every finished simulation)", file=sys.stderr)
     bar: Any = None
 
@@ -90,25 +90,48 @@ def reproduce_stage(out: Path, quick: bool, command: str) -> tuple[Path | None, 
     it holds the study (``replication validate-jet [--quick]`` fills it; the full study is hours
     of SPH, and reproduce must not start that unasked).
 
-    Returns the report's path, or None and why the stage was skipped.
+    The cache is ``$REPLICATION_SPH_CACHE`` or ``.sph-cache/``. Without it (a fresh clone) or
+    without the engine, or when the cache lacks a simulation, the report is re-rendered from the
+    study's data already in ``out/data`` (the committed CSV files), which are left as they are;
+    with no such data either, the stage is skipped.
+
+    Returns the report's path and a note on where it came from (empty: from the cache), or None
+    and why the stage was skipped.
     """
     from replication.casestudy.sph import INSTALL_HINT, engine_available
-    from replication.casestudy.sph_batch import DEFAULT_CACHE_DIR
+    from replication.casestudy.sph_batch import CACHE_ENV, default_cache_dir
     from replication.errors import SimulationError
     from replication.experiments.jet_surface_set import set_path
     from replication.experiments.jet_validation import ValidationConfig
 
-    if not engine_available():
-        return None, f"the SPH solver is not installed ({INSTALL_HINT})"
+    cache = default_cache_dir()
     config = ValidationConfig.quick() if quick else ValidationConfig()
-    if not set_path(DEFAULT_CACHE_DIR, config).is_file():
+    if not engine_available():
+        why = f"the SPH solver is not installed ({INSTALL_HINT})"
+    elif not set_path(cache, config).is_file():
         flag = " --quick" if quick else ""
-        return None, f"no study in {DEFAULT_CACHE_DIR}/: run `replication validate-jet{flag}` first (SPH)"
-    args = argparse.Namespace(
-        quick=quick, timeout=None, cache_dir=None, executor="serial", workers=1, scheduler=None,
-        ga_run_dir=None, retry_failed=False, from_cache=True, rebuild_surfaces=False, invocation=command,
-    )  # fmt: skip
-    try:
-        return run_validation_report(args, out)[1], ""
-    except SimulationError as exc:
-        return None, f"{exc} (run `replication validate-jet`)"
+        why = (
+            f"no study in the SPH cache {cache}/: run `replication validate-jet{flag}` first (SPH), "
+            f"or set {CACHE_ENV} to the directory of a filled cache"
+        )
+    else:
+        why = ""
+    if not why:
+        args = argparse.Namespace(
+            quick=quick, timeout=None, cache_dir=str(cache), executor="serial", workers=1, scheduler=None,
+            ga_run_dir=None, retry_failed=False, from_cache=True, rebuild_surfaces=False, invocation=command,
+        )  # fmt: skip
+        try:
+            return run_validation_report(args, out)[1], ""
+        except SimulationError as exc:
+            why = f"{exc} (run `replication validate-jet`)"
+    return _from_saved(out, why)
+
+
+def _from_saved(out: Path, why: str) -> tuple[Path | None, str]:
+    """Re-render the report from the study's data in ``out/data``, or None when there is none."""
+    from replication.report.jet_validation import render_jet_validation, saved_study
+
+    if not saved_study(out):
+        return None, why
+    return render_jet_validation(out), f"re-rendered from the saved data in {out / 'data'} ({why})"

@@ -161,6 +161,11 @@ class ValidationResults:
     repeatability: pd.DataFrame  # surfaces simulated again shifted by a fraction of a particle
     noise: pd.DataFrame  # the SPH noise floor and the Spearman it allows
     provenance: dict[str, Any] = field(default_factory=dict)
+    # the surrogate (item 2): None when too few surfaces have an SPH score to fit it
+    surrogate_surfaces: pd.DataFrame | None = None
+    surrogate_params: pd.DataFrame | None = None
+    surrogate_agreement: pd.DataFrame | None = None
+    departures: pd.DataFrame | None = None
 
 
 def _sph_row(scored: Any, jet: JetConfig) -> dict[str, Any]:
@@ -186,6 +191,13 @@ def _sph_row(scored: Any, jet: JetConfig) -> dict[str, Any]:
         "sph_cached": scored.cached,
         "sph_key": scored.key,
     }
+
+
+def _rekeyed(cache_dir: str | Path, key: Any) -> bool:
+    """Whether the cache entry was simulated by earlier SPH code and kept under today's key."""
+    from replication.casestudy.sph_batch import entry_path
+
+    return isinstance(key, str) and (entry_path(cache_dir, key) / "rekeyed.json").is_file()
 
 
 def _drift(result: Any) -> float:
@@ -269,6 +281,7 @@ def run_validation(
     from replication.casestudy.sph import engine_version
     from replication.casestudy.sph_batch import SurfaceTask, code_digest, score_surfaces
     from replication.experiments.jet_repeatability import repeat_table, shifted_jet, shifted_surface
+    from replication.experiments.jet_surrogate import departures, fit_surrogate
     from replication.experiments.jet_validation_tables import (
         SPH_COLUMN,
         agreement_table,
@@ -320,6 +333,8 @@ def run_validation(
         row["model_over_sph"] = row["model_over_rho_q_v"] / sph if sph > 0 else float("nan")
         rows.append(row)
     table = pd.DataFrame(rows)
+    table["sph_rekeyed"] = [_rekeyed(cache_dir, k) for k in table["sph_key"]]
+    resolution["sph_rekeyed"] = [_rekeyed(cache_dir, k) for k in resolution["sph_key"]]
     unknown = [n for n in config.repeat_surfaces if n not in by_name]
     if unknown:
         raise InputError(f"repeat_surfaces {unknown} are not surfaces of the study")
@@ -337,6 +352,10 @@ def run_validation(
     repeatability = repeat_table(pairs, SPH_COLUMN)
     vertices, triangles = _geometry(surfaces)
     rng = np.random.default_rng([config.seed, 1])
+    surrogate = fit_surrogate(
+        table, surfaces, config.jet, resamples=config.bootstrap, rng=np.random.default_rng([config.seed, 3]),
+        split_seed=[config.seed, 2],
+    ) or {}  # fmt: skip
     ga_seed = config.ga.seed if config.ga else "-"
     record = provenance(
         command,
@@ -350,7 +369,8 @@ def run_validation(
         seeds=(
             f"random surface i: numpy default_rng([{config.seed}, i]); bootstrap: "
             f"default_rng([{config.seed}, 1]); GA run k: default_rng([{ga_seed}, k]); "
-            "SPH deterministic (one thread)"
+            f"calibration halves: default_rng([{config.seed}, 2]); surrogate bootstrap: "
+            f"default_rng([{config.seed}, 3]); SPH deterministic (one thread)"
         ),
         run_seconds=time.perf_counter() - started,
         **_simulation_seconds(table, resolution),
@@ -367,6 +387,8 @@ def run_validation(
         repeatability=repeatability,
         noise=noise_table(table, repeatability, rng=rng),
         provenance=record,
+        departures=departures(table, surfaces),
+        **surrogate,
     )
 
 

@@ -17,7 +17,11 @@ import pandas as pd
 from replication.report.markdown import fmt, table
 from replication.report.store import read_csv
 
-__all__ = ["validation_headline", "validation_section"]
+__all__ = ["OPTIMUM_CLAIM", "fitness_note", "validation_headline", "validation_section"]
+
+#: The case study's claim about the GA's optimum (``casestudy_claims.csv``), which the model
+#: alone cannot establish.
+OPTIMUM_CLAIM = "neither the flat plate nor the bucket is the optimum"
 
 SPH = "sph_over_measured_flux"
 GOAL = 0.9
@@ -58,6 +62,27 @@ def _verdicts(d: dict[str, pd.DataFrame]) -> dict[str, Any]:
     held = None if sur is None else sur[sur["scope"] == "held out"]
     out["surrogate"] = None if held is None or held.empty else float(held.iloc[0]["spearman"])
     return out
+
+
+def fitness_note(out_dir: str | Path, claim: str) -> str:
+    """What to add to a claim's explanation: for the GA's optimum, which fitness decides it.
+
+    The GA's verdict on its optimum is the thin-sheet model's; the note says so and gives
+    what the validation study's SPH says of the GA's winners against the bucket, or that SPH
+    has not checked it. Other claims get no note ("").
+    """
+    if claim != OPTIMUM_CLAIM:
+        return ""
+    d = _load(Path(out_dir))
+    v = None if d is None else _verdicts(d)
+    head = " The verdict is the thin-sheet model's (the GA's fitness)"
+    if v is None or v["ga_beats_bucket_sph"] is None:
+        return head + "; SPH has not checked it (jet_validation.md): it holds for the model only."
+    sph = "holds" if v["ga_beats_bucket_sph"] else "does not hold"
+    return (
+        f"{head}; by SPH it **{sph}**: best GA winner {v['ga_sph']:.2f}, bucket {v['bucket_sph']:.2f} "
+        "x measured flux V (jet_validation.md)."
+    )
 
 
 def validation_headline(out_dir: str | Path) -> list[str]:

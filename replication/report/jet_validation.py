@@ -24,6 +24,7 @@ from replication.report.jet_validation_text import (
     findings,
     noise_rows,
     repeat_rows,
+    resolution_limit,
     resolution_rows,
     surface_rows,
     surrogate_section,
@@ -37,6 +38,7 @@ __all__ = [
     "load_jet_validation_data",
     "render_jet_validation",
     "save_jet_validation_data",
+    "saved_study",
 ]
 
 TABLES = (
@@ -46,7 +48,7 @@ TABLES = (
 #: Tables of the surrogate (present once it is calibrated).
 OPTIONAL = ("surrogate_surfaces", "surrogate_params", "surrogate_agreement", "departures")
 PREFIX = "jet_validation"
-RESOLUTION_HEADER = ["surface", "family", "model", "last change", "residual bound"]
+RESOLUTION_HEADER = ["surface", "family", "model", "last change", "rank (last two radii)", "residual bound"]
 CONVERGENCE_HEADER = [
     "SPH at", "n", "Spearman vs finest [95 % CI]", "Kendall vs finest [95 % CI]", "largest change",
     "median change", "model vs SPH (Spearman)",
@@ -77,6 +79,13 @@ def save_jet_validation_data(results: Any, out_dir: str | os.PathLike[str]) -> P
             path.unlink()
     write_json(results.provenance, data / f"{PREFIX}_provenance.json")
     return data
+
+
+def saved_study(out_dir: str | os.PathLike[str]) -> bool:
+    """Whether ``out_dir/data`` holds a saved study (every table and the provenance)."""
+    data = Path(out_dir) / "data"
+    names = [f"{PREFIX}_{name}.csv" for name in TABLES] + [f"{PREFIX}_provenance.json"]
+    return all((data / name).is_file() for name in names)
 
 
 def load_jet_validation_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
@@ -161,7 +170,7 @@ ways and measures how well the rankings agree. **Every force below says which so
 - **Cache**: every simulation is a directory of the SPH cache named by a hash of surface, settings,
   engine version and the SPH code (`replication.casestudy.sph_batch`); {prov.get("simulations", "?")}
   distinct simulations took {seconds / 3600:.2f} h of wall time in all (one core each, at most 2 at a
-  time, on a shared 2-core machine under load).
+  time, on a shared 2-core machine under load).{_origin(prov, surfaces)}
 
 ## Resolution study
 
@@ -175,6 +184,8 @@ force converged only linearly in r (the changes shrink faster where they shrink 
 conservative there).
 
 {table(convergence_rows(d), CONVERGENCE_HEADER)}
+
+{resolution_limit(d)}
 
 ![Resolution study](figures/jet_validation_resolution.png)
 
@@ -226,6 +237,30 @@ replication validate-jet --quick         # three surfaces, coarse particles
     path = out / "jet_validation.md"
     atomic_write_text(path, text)
     return path
+
+
+def _origin(prov: dict[str, Any], surfaces: pd.DataFrame) -> str:
+    """Which code built the surfaces (the GA's winners) and ran the re-keyed simulations."""
+    built = prov.get("surfaces_built_by") or {}
+    text = ""
+    if built.get("commit"):
+        dirty = " with uncommitted changes" if built.get("dirty") else ""
+        text += (
+            f"\n- **Surfaces' origin**: built once by the code of commit `{built['commit'][:12]}`{dirty} "
+            "and kept with the SPH cache (`surfaces/`, the GA runs in `ga-runs/`); the GA winners are the "
+            "winners of the GA as run then. The triangulator has since changed how it breaks ties on "
+            "lattice clouds, so a GA run by later code may find other winners; the study scores these."
+        )
+    rekeyed = int(surfaces.get("sph_rekeyed", pd.Series(dtype=bool)).fillna(False).astype(bool).sum())
+    if rekeyed:
+        text += (
+            f"\n- **Re-keyed simulations**: {rekeyed} of the {len(surfaces)} study-radius simulations (and "
+            "those of the resolution study run at the same time) were run by the SPH code before its "
+            "millimetre-to-metre conversion was unified (x * 1e-3 then, x / 1000 now: the surface "
+            "coordinates at most one unit in the last place apart, far below the repeatability shift "
+            "above) and kept under the current code's key (each such cache entry holds `rekeyed.json`)."
+        )
+    return text
 
 
 def sph_table(out_dir: str | os.PathLike[str]) -> pd.DataFrame | None:

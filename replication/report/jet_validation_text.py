@@ -16,6 +16,8 @@ __all__ = [
     "NOISE_HEADER",
     "REPEAT_HEADER",
     "noise_rows",
+    "resolution_limit",
+    "sph_winners",
     "repeat_rows",
     "agreement_rows",
     "convergence_rows",
@@ -58,14 +60,61 @@ def resolution_rows(d: dict[str, Any]) -> list[list[str]]:
     wide = res.pivot_table(index="surface", columns="radius_mm", values=SPH, sort=False)
     radii = sorted(wide.columns, reverse=True)
     first = res.drop_duplicates("surface").set_index("surface")
+    ranks = wide.rank(ascending=False)  # 1: the highest force at that radius
     rows = []
     for name in dict.fromkeys(res["surface"]):
         values = [wide.loc[name, r] if name in wide.index else np.nan for r in radii]
         last = values[-1] - values[-2] if len(values) >= 2 else np.nan
         bound = abs(last) * radii[-1] / (radii[-2] - radii[-1]) if len(values) >= 2 else np.nan
-        rows.append([name, first.loc[name, "family"], fmt(first.loc[name, "model_over_rho_q_v"], ".3f"),
-                     *[fmt(v, ".3f") for v in values], fmt(last, "+.3f"), fmt(bound, ".3f")])  # fmt: skip
+        rank = (
+            f"{fmt(ranks.loc[name, radii[-2]], '.0f')} -> {fmt(ranks.loc[name, radii[-1]], '.0f')}"
+            if len(radii) >= 2 and name in ranks.index
+            else "–"
+        )
+        model = fmt(first.loc[name, "model_over_rho_q_v"], ".3f")
+        rows.append([name, first.loc[name, "family"], model, *[fmt(v, ".3f") for v in values],
+                     fmt(last, "+.3f"), rank, fmt(bound, ".3f")])  # fmt: skip
     return rows
+
+
+def resolution_limit(d: dict[str, Any]) -> str:
+    """The residual resolution error stated plainly: no radius finer than the study's was run."""
+    conv, res = d["convergence"], d["resolution"]
+    if len(conv) < 2 or res.empty:
+        return ""
+    radii = sorted(res["radius_mm"].unique())
+    fine, coarse = radii[0], radii[1]
+    row = conv[conv["radius_mm"] == coarse].iloc[0]
+    return (
+        f"**The limit of this study.** No radius finer than r = {fine:g} mm was simulated (0.4 mm costs "
+        "about twice as much per simulation and did not fit the study's time), so the error left at "
+        f"r = {fine:g} mm is not bounded by a further refinement: it is stated by the last change, "
+        f"{coarse:g} -> {fine:g} mm, per surface in the table above (force / flux V, the change and the "
+        f"surface's rank among the {int(row['n'])}). Over these surfaces that change is at most "
+        f"{fmt(row['max_change'], '.3f')} (median {fmt(row['median_change'], '.3f')}), and the ranking at "
+        f"{coarse:g} mm agrees with that at {fine:g} mm with Spearman "
+        f"{_ci(row['spearman'], row['spearman_low'], row['spearman_high'])}. Differences between "
+        "surfaces smaller than these changes are within SPH's resolution error."
+    )
+
+
+def sph_winners(d: dict[str, Any], k: int = 5) -> str:
+    """SPH's k best surfaces, and how many of them are GA winners."""
+    s = d["surfaces"]
+    ok = s[s["sph_status"] == "ok"].sort_values(SPH, ascending=False)
+    if len(ok) < 2 * k:
+        return ""
+    top = ok.head(k)
+    ga = ok[ok["family"] == "GA winner"]
+    names = ", ".join(f"{r['surface']} ({fmt(r[SPH], '.3f')})" for _, r in top.iterrows())
+    n_ga = int((top["family"] == "GA winner").sum())
+    best_model = ok.loc[ok["model_over_rho_q_v"].idxmax()]
+    rank = int((ok[SPH] > best_model[SPH]).sum()) + 1
+    return (
+        f"- **SPH's winners.** SPH's {k} best surfaces: {names}. GA winners among them: {n_ga} "
+        f"(of {len(ga)} scored). The model's best surface, {best_model['surface']}, ranks "
+        f"{rank} of {len(ok)} by SPH."
+    )
 
 
 def convergence_rows(d: dict[str, Any]) -> list[list[str]]:
@@ -175,6 +224,9 @@ def findings(d: dict[str, Any]) -> str:
                 "idealisation, not the force."
             )  # fmt: skip
         )
+    winners = sph_winners(d)
+    if winners:
+        lines.append(winners)
     conv = d["convergence"]
     if len(conv) >= 2:
         coarse = conv.iloc[-2]
@@ -183,7 +235,8 @@ def findings(d: dict[str, Any]) -> str:
             f"ranking of the resolution study's {int(coarse['n'])} surfaces has Spearman "
             f"{fmt(coarse['spearman'], '.2f')}; "
             f"the largest change of force / flux V is {fmt(coarse['max_change'], '.3f')} (median "
-            f"{fmt(coarse['median_change'], '.3f')})."
+            f"{fmt(coarse['median_change'], '.3f')}); no finer radius was simulated (see the resolution "
+            "study: this change is the stated residual error)."
         )
     sur = d.get("surrogate_agreement")
     if sur is not None and len(sur):
