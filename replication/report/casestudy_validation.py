@@ -75,7 +75,7 @@ def fitness_note(out_dir: str | Path, claim: str) -> str:
         return ""
     d = _load(Path(out_dir))
     v = None if d is None else _verdicts(d)
-    head = " The verdict is the thin-sheet model's (the GA's fitness)"
+    head = ". The verdict is the thin-sheet model's (the GA's fitness)"
     if v is None or v["ga_beats_bucket_sph"] is None:
         return head + "; SPH has not checked it (jet_validation.md): it holds for the model only."
     sph = "holds" if v["ga_beats_bucket_sph"] else "does not hold"
