@@ -230,7 +230,7 @@ def test_without_a_cache_reproduce_re_renders_the_saved_study_and_leaves_its_dat
     assert (out / "figures" / "jet_validation_scatter.png").is_file()
     (out / "data" / "jet_validation_noise.csv").unlink()  # incomplete data: not a study, skipped
     path, note = reproduce_stage(out, False, "replication reproduce")
-    assert path is None and "validate-jet" in note
+    assert path is None and ("validate-jet" in note or "not installed" in note)  # (with or without SPH)
 
 
 @needs_engine
