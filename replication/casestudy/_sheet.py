@@ -125,11 +125,16 @@ def _vertex_at(x, y, tri, t, k, px, py, tol):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _follow(mesh, half, convex, zmax, eps, max_steps, min_split, stack, stack_t, top, force, out, tally):
+def _follow(
+    mesh, half, convex, zmax, eps, max_steps, min_split, loss, stack, stack_t, top, force, out, tally
+):
     """Follow the parcel ``stack[top]`` until it leaves; return the new stack size.
 
     The parcel is popped; the backward streams it splits off are pushed in its place.
+    ``loss`` is (crease, reimpact): the speed lost turning across a concave crease per unit
+    of (1 - cos turn), and the fraction of speed lost at a re-impact (0, 0: none, the model).
     """
+    crease, reimpact = loss[0], loss[1]
     x, y, z, tri, nbr, nrm, slope, bnd, edges = mesh
     px, py, pz, vx, vy, vz, m, root = stack[top]
     t = stack_t[top]
@@ -171,6 +176,9 @@ def _follow(mesh, half, convex, zmax, eps, max_steps, min_split, stack, stack_t,
             vabs = math.sqrt(vx * vx + vy * vy + vz * vz)
             if vx * n2x + vy * n2y + vz * n2z <= _FLAT * vabs:  # concave or flat: follow the surface
                 wx, wy, wz = _rotate(vx, vy, vz, n1x, n1y, n1z, n2x, n2y, n2z)
+                if crease > 0.0:  # the surrogate's crease loss (issue 11): speed lost with the turn
+                    keep = max(0.0, 1.0 - crease * (1.0 - (vx * wx + vy * wy + vz * wz) / (vabs * vabs)))
+                    wx, wy, wz = keep * wx, keep * wy, keep * wz
                 force[0] += m * (vx - wx)
                 force[2] += m * (vz - wz)
                 if mirror:  # the symmetry plane takes the y component; fold back
@@ -218,6 +226,8 @@ def _follow(mesh, half, convex, zmax, eps, max_steps, min_split, stack, stack_t,
                 tx, ty, tz = tx - vn * nx, ty - vn * ny, tz - vn * nz
                 tnorm = math.sqrt(tx * tx + ty * ty + tz * tz)
                 back = 0.5 * (1.0 - min(tnorm / vabs, 1.0))
+                keep = 1.0 - reimpact  # the surrogate's re-impact loss (issue 11); 1.0: exact model
+                vout = keep * vabs
                 if back * m >= min_split * root and free < cap:
                     if tnorm > 1e-9 * vabs:
                         dx, dy, dz = tx / tnorm, ty / tnorm, tz / tnorm
@@ -227,19 +237,20 @@ def _follow(mesh, half, convex, zmax, eps, max_steps, min_split, stack, stack_t,
                         dx, dy, dz = dx / dn, dy / dn, dz / dn
                     mb = back * m
                     mf = m - mb
-                    force[0] += m * vx - (mf - mb) * vabs * dx
-                    force[1] += m * vy - (mf - mb) * vabs * dy
-                    force[2] += m * vz - (mf - mb) * vabs * dz
+                    force[0] += m * vx - (mf - mb) * vout * dx
+                    force[1] += m * vy - (mf - mb) * vout * dy
+                    force[2] += m * vz - (mf - mb) * vout * dz
                     stack[free, 0], stack[free, 1], stack[free, 2] = px, py, pz
-                    stack[free, 3], stack[free, 4], stack[free, 5] = -vabs * dx, -vabs * dy, -vabs * dz
+                    stack[free, 3], stack[free, 4], stack[free, 5] = -vout * dx, -vout * dy, -vout * dz
                     stack[free, 6] = mb
                     stack[free, 7] = root
                     stack_t[free] = t
                     free += 1
                     tally[TALLY_PARCELS] += 1.0
                     m = mf
-                    vx, vy, vz = vabs * dx, vabs * dy, vabs * dz
+                    vx, vy, vz = vout * dx, vout * dy, vout * dz
                 elif tnorm > 1e-9 * vabs:  # too small to split: keep the momentum, lose speed
+                    tx, ty, tz = keep * tx, keep * ty, keep * tz
                     force[0] += m * (vx - tx)
                     force[1] += m * (vy - ty)
                     force[2] += m * (vz - tz)
@@ -355,7 +366,7 @@ def _spread(nrm, t, speed, cs, weight):
 
 
 @njit(cache=True, error_model="numpy")
-def trace(mesh, half, convex, sx, sy, smass, start, speed, n_dir, min_split, max_steps):
+def trace(mesh, half, convex, sx, sy, smass, start, speed, n_dir, min_split, max_steps, loss):
     """Trace every streamlet of the jet over the surface; return (force, momentum out, tally).
 
     Parameters
@@ -380,6 +391,9 @@ def trace(mesh, half, convex, sx, sy, smass, start, speed, n_dir, min_split, max
         ``min_split`` times that of the parcel the streamlet spread into at its impact.
     max_steps : int
         Events after which a parcel that has not left is stopped (trapped, absorbed).
+    loss : float64 array, shape (2,)
+        The surrogate's losses (crease, re-impact); zeros give the model exactly (see
+        :class:`replication.casestudy.jet.SheetLosses`).
     """
     x, y, z = mesh[0], mesh[1], mesh[2]
     force = np.zeros(3)
@@ -422,7 +436,7 @@ def trace(mesh, half, convex, sx, sy, smass, start, speed, n_dir, min_split, max
             stack_t[k] = t0
         top = n_dir - 1
         while top >= 0:
-            top = _follow(mesh, half, convex, zmax, eps, max_steps, min_split, stack, stack_t, top,
+            top = _follow(mesh, half, convex, zmax, eps, max_steps, min_split, loss, stack, stack_t, top,
                           force, out, tally) - 1  # fmt: skip
     return force, out, tally
 

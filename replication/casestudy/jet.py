@@ -62,6 +62,7 @@ from numpy.typing import ArrayLike
 
 from replication.casestudy import _sheet
 from replication.casestudy.jetconfig import JetConfig  # re-exported: jet.JetConfig keeps working
+from replication.casestudy.losses import SheetLosses
 from replication.casestudy.mesh import check_domain, check_height_field, weld
 from replication.casestudy.units import to_metres
 from replication.errors import DegenerateInputError, InputError
@@ -74,6 +75,7 @@ __all__ = [
     "DEFAULT_RESOLUTION",
     "MIN_SPLIT_FRACTION",
     "JetConfig",
+    "SheetLosses",
     "JetForce",
     "jet_force",
     "jet_streamlets",
@@ -196,6 +198,7 @@ def _trace(
     config: JetConfig,
     resolution: int,
     neighbors: np.ndarray | None = None,
+    losses: SheetLosses | None = None,
 ) -> JetForce:
     """Run the compiled model on a validated mesh (metres, CCW triangles; their neighbours,
     if known, e.g. an ADT surface's own adjacency)."""
@@ -208,7 +211,8 @@ def _trace(
     max_steps = MAX_STEPS_PER_TRIANGLE * triangles.shape[0] + 64
     sx, sy = np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1])
     jet = (sx, sy, mass, start.astype(np.int64), config.velocity, 4 * resolution)
-    force, out, tally = _sheet.trace(mesh, half, convex, *jet, MIN_SPLIT_FRACTION, max_steps)
+    loss = (losses or SheetLosses()).as_array()
+    force, out, tally = _sheet.trace(mesh, half, convex, *jet, MIN_SPLIT_FRACTION, max_steps, loss)
     if not (np.all(np.isfinite(force)) and np.all(np.isfinite(out))):  # a safety net, never seen
         raise DegenerateInputError("the jet force is not finite: the surface has degenerate facets")
     force.flags.writeable = False
@@ -234,6 +238,7 @@ def jet_force(
     config: JetConfig | None = None,
     *,
     resolution: int = DEFAULT_RESOLUTION,
+    losses: SheetLosses | None = None,
 ) -> JetForce:
     """Force of the water jet on a triangulated height-field surface.
 
@@ -250,6 +255,9 @@ def jet_force(
     resolution : int
         Rings of streamlets across the jet radius; the impact spreads into
         ``4 * resolution`` directions.
+    losses : SheetLosses, optional
+        Speed lost at creases and re-impacts (the surrogate of issue 11); default none: the
+        thin-sheet model exactly.
 
     Returns
     -------
@@ -287,7 +295,7 @@ def jet_force(
     check_domain(pts, config, np.unique(tri))
     pts, tri = weld(pts, tri)
     tri, convex = check_height_field(pts, tri)
-    return _trace(pts, tri, convex, config, resolution)
+    return _trace(pts, tri, convex, config, resolution, losses=losses)
 
 
 def surface_force(

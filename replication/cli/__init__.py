@@ -49,6 +49,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "replication.cli.sph",
         "the case study on a real SPH solver: convergence and the paper's forces examined (sph.md)",
     ),
+    "validate-jet": (
+        "replication.cli.validate",
+        "check the thin-sheet jet model against SPH on 37 surfaces (jet_validation.md)",
+    ),
 }
 
 

@@ -20,6 +20,7 @@ from matplotlib.patches import Wedge
 from replication.errors import DuplicatePointsWarning
 from replication.experiments.casestudy import differences_from_paper
 from replication.io.atomic import atomic_write_text
+from replication.report.casestudy_validation import fitness_note, validation_section  # issue 11
 from replication.report.figures import clear_figures, save_figure
 from replication.report.markdown import fmt, iqr, provenance_section, table
 from replication.report.render3d import render_views
@@ -180,7 +181,7 @@ def render_casestudy(out_dir: str | os.PathLike[str]) -> Path:
             str(r["paper"]) if pd.notna(r["paper"]) else "–",
             fmt(r["ours"], ".4g"),
             f"**{r['verdict']}**",
-            r["why"],
+            r["why"] + fitness_note(out, r["claim"]),  # issue 11: which fitness says so
         ]
         for _, r in d["claims"].iterrows()
     ]
@@ -313,6 +314,7 @@ and the size of the individual's surface as compact legacy VTK:
 - **Evaluations.** Individuals already scored are not scored again (cache by genome), so our count
   of evaluations is below population x generations.
 
+{validation_section(out)}
 ## Reproduce
 
 ```bash

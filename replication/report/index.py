@@ -10,6 +10,7 @@ import pandas as pd
 from replication.errors import CloudFileError
 from replication.experiments.table1_claims import STORAGE_HEADLINE
 from replication.io.atomic import atomic_write_text
+from replication.report.casestudy_validation import validation_headline
 from replication.report.store import read_csv
 
 __all__ = ["REPORTS", "headline", "render_index", "update_readme"]
@@ -32,6 +33,11 @@ REPORTS: tuple[tuple[str, str, str], ...] = (
         "sph.md",
         "The case study on a real SPH solver",
         "SPlisHSPlasH: convergence, and the paper's forces examined (section 6)",
+    ),
+    (
+        "jet_validation.md",
+        "The thin-sheet jet model checked against SPH",
+        "37 surfaces (plates, cups, the GA's winners, random lattices) ranked by both (section 6)",
     ),
     (
         "performance.md",
@@ -108,13 +114,16 @@ def headline(out_dir: str | os.PathLike[str]) -> list[str]:
         shapes = read_csv(data / "casestudy_shapes.csv").set_index("shape")
         runs = read_csv(data / "casestudy_runs.csv")
         flat, bucket = shapes.loc["flat plate"], shapes.loc["pelton bucket"]
+        validated = validation_headline(out_dir)  # issue 11: which fitness, and SPH beside it
+        fitness = ", thin-sheet model" if validated else ""
         lines.append(
-            f"- **Case study** (half jet): flat plate {flat['axial_N']:.2f} N, bucket "
+            f"- **Case study** (half jet{fitness}): flat plate {flat['axial_N']:.2f} N, bucket "
             f"{bucket['axial_N']:.2f} N, best GA surfaces {runs['best_N'].min():.2f}-"
             f"{runs['best_N'].max():.2f} N; the paper's SPH "
             f"gives {_paper_force(flat)} and {_paper_force(bucket)}, above the momentum bound "
             "2 rho Q V of any steady jet force, so its forces cannot be reproduced by a momentum balance."
         )
+        lines += validated
     return lines
 
 

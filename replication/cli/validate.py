@@ -1,0 +1,112 @@
+"""``replication validate-jet``: the thin-sheet model checked against SPH (jet_validation.md)."""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from replication.cli.common import positive_int
+from replication.cli.validate_run import run_validation_report
+
+EPILOG = """\
+examples:
+  replication validate-jet                      the full study (hours of SPH) into reports/
+  replication validate-jet --from-cache         re-render from the SPH cache only (seconds)
+  replication validate-jet --quick              3 surfaces, coarse particles, into reports-quick/
+  replication validate-jet --workers 1          one simulation at a time
+
+Every simulation's result is a directory in the SPH cache (--cache-dir, default .sph-cache/),
+named by a hash of the surface, the settings, the engine version and the SPH code: after
+Ctrl-C or a crash, the same command skips every finished simulation. Failed simulations are
+recorded and skipped on a rerun (--retry-failed runs them again). The study's surfaces are
+built once and kept in the cache directory (surfaces/, with the GA runs whose winners they
+include, ga-runs/), so a later change of the triangulator or the model does not turn the
+cached simulations into misses; --rebuild-surfaces builds them afresh.
+"""
+
+
+def _cmd_validate(args: argparse.Namespace) -> int:
+    from replication.cli.outputs import finish_reports, planned_output_dir
+
+    out = planned_output_dir(args)
+    start = time.perf_counter()
+    results, path = run_validation_report(args, out)
+    table = results.surfaces
+    missing = int((table["sph_status"] == "missing").sum())
+    failed = int((~table["sph_status"].isin(["ok", "missing"])).sum())
+    overall = results.agreement.iloc[0]
+    print(
+        f"{len(table)} surfaces: thin-sheet model vs SPH Spearman {overall['spearman']:.3f} "
+        f"[{overall['spearman_low']:.3f}, {overall['spearman_high']:.3f}], Kendall {overall['kendall']:.3f} "
+        f"over {int(overall['n'])} simulated ({failed} failed, {missing} not in the cache)"
+    )
+    written = finish_reports(out)
+    print(f"wrote {path} ({time.perf_counter() - start:.1f} s; data in {out / 'data'})")
+    for readme in written[1:]:
+        print(f"refreshed the headline block of {readme} from {out}/data (the reports beside it)")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``validate-jet`` subcommand."""
+    from replication.casestudy.evaluate import EXECUTORS
+    from replication.cli.outputs import DEFAULT_DIR, QUICK_DIR
+    from replication.cli.sph import positive_float
+
+    p = sub.add_parser(
+        "validate-jet",
+        help="check the thin-sheet jet model against SPH on 37 surfaces (jet_validation.md)",
+        description=(
+            "Score plates, cups, the GA's winners and random lattice surfaces with SPH (SPlisHSPlasH, "
+            'the optional extra: pip install ".[sph]") and with the thin-sheet model, after a resolution '
+            "study, and report how well the model ranks the surfaces (Spearman, Kendall, top-k)."
+        ),
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"3 surfaces, coarse particles (under a minute) into {QUICK_DIR}/",
+    )
+    p.add_argument("--cache-dir", metavar="DIR", help="the SPH cache (default .sph-cache/)")
+    p.add_argument(
+        "--from-cache",
+        action="store_true",
+        help="simulate nothing: report from the cache, and fail if a simulation is missing",
+    )
+    p.add_argument("--retry-failed", action="store_true", help="simulate again the failed simulations")
+    p.add_argument(
+        "--ga-run-dir",
+        metavar="DIR",
+        help="score the winners of these GA runs (read, or run there) instead of the GA kept in the cache",
+    )
+    p.add_argument(
+        "--rebuild-surfaces",
+        action="store_true",
+        help="build the surfaces afresh with this code instead of reading the set kept in the cache",
+    )
+    p.add_argument(
+        "--workers", type=positive_int, default=2, help="simulations at a time (default 2; each uses a core)"
+    )
+    p.add_argument(
+        "--executor",
+        choices=EXECUTORS,
+        default="process",
+        help="where simulations are driven from (default: a process pool)",
+    )
+    p.add_argument(
+        "--scheduler", metavar="ADDRESS", help="a running dask scheduler (its workers share the cache)"
+    )
+    p.add_argument(
+        "--timeout",
+        type=positive_float,
+        metavar="S",
+        help="wall-clock limit of one simulation (default 3600 s)",
+    )
+    p.add_argument(
+        "--output-dir",
+        metavar="DIR",
+        help=f"where the report, figures and data go (default {DEFAULT_DIR}/, or {QUICK_DIR}/ with --quick)",
+    )
+    p.set_defaults(func=_cmd_validate)

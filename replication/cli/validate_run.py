@@ -1,0 +1,137 @@
+"""Running the validation study from the command line: progress, data, report (validate-jet, reproduce).
+
+Kept apart from the command's parser (:mod:`.validate`) so that ``replication reproduce``
+(:mod:`.reports`) can run it without the two importing each other.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import sys
+from pathlib import Path
+from typing import Any
+
+
+def _config(args: argparse.Namespace) -> Any:
+    import dataclasses
+
+    from replication.experiments.jet_validation import ValidationConfig
+
+    config = ValidationConfig.quick() if args.quick else ValidationConfig()
+    if args.timeout is not None:
+        config = dataclasses.replace(config, timeout=args.timeout)
+    return config
+
+
+def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Path]:
+    """Run the study as the arguments say (progress on stderr), save its data, render the report.
+
+    The index (and a checkout's README headline) is the caller's to refresh.
+    """
+    from tqdm import tqdm
+
+    from replication.casestudy.evaluate import executor
+    from replication.casestudy.sph import require_engine
+    from replication.casestudy.sph_batch import default_cache_dir
+    from replication.errors import SimulationError
+    from replication.experiments.jet_validation import run_validation
+    from replication.report.jet_validation import render_jet_validation, save_jet_validation_data
+
+    require_engine()
+    config = _config(args)
+    cache = Path(args.cache_dir) if args.cache_dir else default_cache_dir()
+    print(f"SPH cache: {cache} (a rerun skips every finished simulation)", file=sys.stderr)
+    bar: Any = None
+
+    def stage(label: str, n: int) -> None:
+        nonlocal bar
+        if bar is not None:
+            bar.close()
+        bar = tqdm(total=n, desc=label, file=sys.stderr, leave=False, dynamic_ncols=True)
+
+    def done(scored: Any) -> None:
+        if bar is not None:
+            bar.set_postfix_str(f"{scored.name}: {scored.status}{' (cached)' if scored.cached else ''}")
+            bar.update(1)
+        if scored.status not in ("ok", "missing"):
+            tqdm.write(f"  {scored.name}: {scored.status}: {scored.reason}", file=sys.stderr)
+
+    ga_pool = functools.partial(executor, "serial")
+    try:
+        kind = "dask" if args.scheduler else args.executor
+        serial = kind == "serial"  # one simulation at a time, driven from this process
+        with executor(kind, workers=None if serial else args.workers, scheduler=args.scheduler) as pool:
+            results = run_validation(
+                config, cache_dir=cache, executor=pool, max_parallel=1 if serial else args.workers,
+                ga_run_dir=args.ga_run_dir, ga_pool_factory=ga_pool, retry_failed=args.retry_failed,
+                simulate_missing=not args.from_cache, rebuild_surfaces=args.rebuild_surfaces,
+                on_result=done, on_stage=stage,
+                command=args.invocation, quick=args.quick,
+            )  # fmt: skip
+    except KeyboardInterrupt:
+        print(
+            f"interrupted: finished simulations are in {cache}; run the same command to resume",
+            file=sys.stderr,
+        )
+        raise
+    finally:
+        if bar is not None:
+            bar.close()
+    missing = int((results.surfaces["sph_status"] == "missing").sum())
+    if missing and args.from_cache:
+        raise SimulationError(f"{missing} simulation(s) missing from the cache: run without --from-cache")
+    save_jet_validation_data(results, out)
+    return results, render_jet_validation(out)
+
+
+def reproduce_stage(out: Path, quick: bool, command: str) -> tuple[Path | None, str]:
+    """The study as a stage of ``replication reproduce``: reported from the SPH cache only, when
+    it holds the study (``replication validate-jet [--quick]`` fills it; the full study is hours
+    of SPH, and reproduce must not start that unasked).
+
+    The cache is ``$REPLICATION_SPH_CACHE`` or ``.sph-cache/``. Without it (a fresh clone) or
+    without the engine, or when the cache lacks a simulation, the report is re-rendered from the
+    study's data already in ``out/data`` (the committed CSV files), which are left as they are;
+    with no such data either, the stage is skipped.
+
+    Returns the report's path and a note on where it came from (empty: from the cache), or None
+    and why the stage was skipped.
+    """
+    from replication.casestudy.sph import INSTALL_HINT, engine_available
+    from replication.casestudy.sph_batch import CACHE_ENV, default_cache_dir
+    from replication.errors import SimulationError
+    from replication.experiments.jet_surface_set import set_path
+    from replication.experiments.jet_validation import ValidationConfig
+
+    cache = default_cache_dir()
+    config = ValidationConfig.quick() if quick else ValidationConfig()
+    if not engine_available():
+        why = f"the SPH solver is not installed ({INSTALL_HINT})"
+    elif not set_path(cache, config).is_file():
+        flag = " --quick" if quick else ""
+        why = (
+            f"no study in the SPH cache {cache}/: run `replication validate-jet{flag}` first (SPH), "
+            f"or set {CACHE_ENV} to the directory of a filled cache"
+        )
+    else:
+        why = ""
+    if not why:
+        args = argparse.Namespace(
+            quick=quick, timeout=None, cache_dir=str(cache), executor="serial", workers=1, scheduler=None,
+            ga_run_dir=None, retry_failed=False, from_cache=True, rebuild_surfaces=False, invocation=command,
+        )  # fmt: skip
+        try:
+            return run_validation_report(args, out)[1], ""
+        except SimulationError as exc:
+            why = f"{exc} (run `replication validate-jet`)"
+    return _from_saved(out, why)
+
+
+def _from_saved(out: Path, why: str) -> tuple[Path | None, str]:
+    """Re-render the report from the study's data in ``out/data``, or None when there is none."""
+    from replication.report.jet_validation import render_jet_validation, saved_study
+
+    if not saved_study(out):
+        return None, why
+    return render_jet_validation(out), f"re-rendered from the saved data in {out / 'data'} ({why})"
