@@ -114,8 +114,11 @@ def test_an_interrupt_of_the_caller_kills_the_child(tmp_path, child):
 
 @pytest.fixture
 def fake_engine(monkeypatch, child):
-    """sph_force with the engine 'installed' and a stand-in child."""
+    """sph_force with the engine 'installed' and a stand-in child (also where the engine is not)."""
+    import replication.casestudy.sph as sph_package
+
     monkeypatch.setattr(score, "require_engine", lambda: "2.19.0")
+    monkeypatch.setattr(sph_package, "require_engine", lambda: "2.19.0")  # what the command line asks
 
     def use(name):
         command = child(name)
