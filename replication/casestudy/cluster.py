@@ -120,8 +120,16 @@ def _dask_executor(client) -> Iterator[cf.Executor]:  # type: ignore[no-untyped-
     """
     from replication.casestudy.daskplugin import register as one_blas_thread
 
+    from distributed.cfexecutor import ClientExecutor
+
+    class DaskExecutor(ClientExecutor):
+        """The client's executor, which also tells how many tasks the cluster runs at once."""
+
+        def worker_count(self) -> int:
+            return max(1, sum(client.nthreads().values()))
+
     one_blas_thread(client)
-    pool = client.get_executor(pure=False)
+    pool = DaskExecutor(client, pure=False)
     try:
         yield pool
     finally:
