@@ -76,8 +76,10 @@ class Batching:
     def __post_init__(self) -> None:
         if not (isinstance(self.task_seconds, (int, float)) and self.task_seconds > 0):
             raise InputError(f"task_seconds must be a positive number, got {self.task_seconds!r}")
-        if isinstance(self.tasks_per_worker, bool) or not isinstance(self.tasks_per_worker, int) or (
-            self.tasks_per_worker < 1
+        if (
+            isinstance(self.tasks_per_worker, bool)
+            or not isinstance(self.tasks_per_worker, int)
+            or (self.tasks_per_worker < 1)
         ):
             raise InputError(f"tasks_per_worker must be a positive integer, got {self.tasks_per_worker!r}")
 
