@@ -14,7 +14,8 @@ several of them would hold a whole generation hostage to the slowest. One rule s
   is free, with the cost measured so far. An evaluation that takes seconds or more is
   therefore always one task of its own, and each worker has the next one queued.
 
-The cost is measured in the worker (the time of the fitness calls alone). Failed or
+The cost is measured in the worker (the time of the fitness calls alone; the estimate is the
+median of the last evaluations, robust to a worker's slow first call). Failed or
 non-finite evaluations are recorded in the worker as data. A task that fails as a whole (its
 worker died more often than the scheduler allows, an unpicklable result) is cut into single
 evaluations and tried again, so that only the evaluation at fault is recorded as failed. A
@@ -31,6 +32,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import math
 import os
+import statistics
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
@@ -48,6 +50,9 @@ __all__ = ["Batching", "Dispatcher", "Outcome", "evaluate_chunk", "worker_count"
 ExecutorFactory = Callable[[], AbstractContextManager[cf.Executor]]
 MAX_EXECUTOR_RETRIES = 3  #: new executors tried for one batch after the previous one broke
 POLL_SECONDS = 0.1  #: how often a wait for results looks at the interrupt flag
+#: Evaluations whose median is the cost estimate: the median, since a worker's first
+#: evaluation also loads the compiled kernels and takes a hundred times longer than the rest.
+COST_WINDOW = 64
 
 
 @dataclass(frozen=True)
@@ -90,8 +95,9 @@ class Batching:
         if cost is None:
             return 1
         balance = math.ceil(remaining / (max(workers, 1) * self.tasks_per_worker))
-        cap = max(1, math.floor(self.task_seconds / cost)) if cost > 0 else balance
-        return max(1, min(balance, cap))
+        if cost * balance <= self.task_seconds:
+            return balance
+        return max(1, min(balance, int(self.task_seconds // cost)))
 
 
 def evaluate_chunk(
@@ -158,8 +164,9 @@ class Dispatcher:
         self.factory = factory
         self.batching = batching or Batching()
         self.retries = retries
-        self.cost: float | None = None  # mean seconds per evaluation, measured in the workers
-        self.measured = 0  # evaluations the cost is the mean of
+        self.cost: float | None = None  # seconds per evaluation: median of the last COST_WINDOW
+        self.measured = 0  # evaluations measured
+        self._recent: deque[float] = deque(maxlen=COST_WINDOW)
         self.tasks = 0  # tasks submitted (for tests and benchmarks)
         self.replaced = 0  # executors replaced after they broke
         self._context: AbstractContextManager[cf.Executor] | None = None
@@ -187,7 +194,8 @@ class Dispatcher:
 
     def _observe(self, seconds: float) -> None:
         self.measured += 1
-        self.cost = seconds if self.cost is None else self.cost + (seconds - self.cost) / self.measured
+        self._recent.append(seconds)
+        self.cost = statistics.median(self._recent)
 
     def evaluate(
         self,
