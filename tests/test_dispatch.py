@@ -149,6 +149,55 @@ def test_a_task_failing_as_a_whole_costs_only_the_evaluation_at_fault():
     assert [outcomes[k] for k in others] == [expected(genomes)[k] for k in others]
 
 
+class BreaksAfter(cf.ThreadPoolExecutor):
+    """Breaks like a process pool whose worker died: after ``n`` tasks, the tasks in flight fail
+    with BrokenExecutor and so does every later submission."""
+
+    def __init__(self, n, on_submit):
+        super().__init__(max_workers=2)
+        self.n, self.on_submit = n, on_submit
+
+    def submit(self, fn, /, *args, **kwargs):
+        self.n -= 1
+        if self.n == 0 and self.on_submit:
+            raise cf.BrokenExecutor("a worker died")
+        if self.n <= 0:
+            future = cf.Future()
+            future.set_exception(cf.BrokenExecutor("a worker died"))
+            return future
+        return super().submit(fn, *args, **kwargs)
+
+
+@pytest.mark.parametrize("on_submit", [True, False])
+def test_a_broken_executor_is_replaced_and_only_lost_work_runs_again(on_submit):
+    made = []
+
+    @contextlib.contextmanager
+    def factory():
+        pool = BreaksAfter(5, on_submit) if not made else cf.ThreadPoolExecutor(max_workers=2)
+        made.append(pool)
+        with pool:
+            yield pool
+
+    genomes = [np.array([k, 2, 3]) for k in range(60)]
+    dispatcher = Dispatcher(factory)
+    dispatcher.cost = 1e-5
+    with dispatcher:
+        assert dispatcher.evaluate(pure, genomes) == expected(genomes)
+    assert len(made) == 2 and dispatcher.replaced == 1
+
+
+def test_an_executor_breaking_every_time_is_an_error():
+    @contextlib.contextmanager
+    def factory():
+        with BreaksAfter(1, True) as pool:
+            yield pool
+
+    with Dispatcher(factory, retries=2) as dispatcher, pytest.raises(cf.BrokenExecutor):
+        dispatcher.evaluate(pure, [np.array([k, 2, 3]) for k in range(5)])
+    assert dispatcher.replaced == 3
+
+
 def test_interrupt_stops_a_batch_and_cancels_what_is_pending():
     calls = []
 

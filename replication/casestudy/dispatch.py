@@ -257,7 +257,12 @@ class Dispatcher:
                     else:
                         size = self.batching.chunk(len(pending), workers, self.cost)
                         chunk = [pending.popleft() for _ in range(size)]
-                    in_flight[pool.submit(evaluate_chunk, fitness, [genomes[i] for i in chunk])] = chunk
+                    try:
+                        future = pool.submit(evaluate_chunk, fitness, [genomes[i] for i in chunk])
+                    except cf.BrokenExecutor:
+                        pending.extendleft(reversed(chunk))  # not sent: it goes to the next executor
+                        raise
+                    in_flight[future] = chunk
                     self.tasks += 1
                 done, _ = cf.wait(in_flight, timeout=POLL_SECONDS, return_when=cf.FIRST_COMPLETED)
                 if interrupted():
