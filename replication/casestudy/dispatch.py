@@ -10,9 +10,12 @@ several of them would hold a whole generation hostage to the slowest. One rule s
   while much is left, single evaluations at the end of a generation, so no worker waits
   long for another - but never more than ``task_seconds`` worth of evaluations at their
   measured cost, and one evaluation per task while no cost has been measured yet;
-* at most ``workers * tasks_per_worker`` tasks are in flight; the rest are cut when a worker
-  is free, with the cost measured so far. An evaluation that takes seconds or more is
-  therefore always one task of its own, and each worker has the next one queued.
+* while no cost has been measured, one single evaluation per worker is in flight; from the
+  first result on, the rest of the batch is cut and submitted at once, so the workers never
+  wait for the calling process between tasks (on a loaded machine or a dask cluster every
+  round trip through it costs milliseconds to seconds). An evaluation that takes longer than
+  ``task_seconds`` is therefore always one task of its own, and the executor hands the tasks
+  to the workers as they become free.
 
 The cost is measured in the worker (the time of the fitness calls alone; the estimate is the
 median of the last evaluations, robust to a worker's slow first call). Failed or
@@ -72,7 +75,7 @@ class Batching:
     task_seconds : float
         Longest work a task of several evaluations is given, at the measured cost.
     tasks_per_worker : int
-        Tasks in flight per worker; also the divisor of the remaining work.
+        The divisor of the remaining work: about the number of tasks a worker gets per batch.
     """
 
     task_seconds: float = 0.1
@@ -247,9 +250,8 @@ class Dispatcher:
         try:
             pool = self.executor()
             workers = worker_count(pool)
-            window = workers * self.batching.tasks_per_worker
             while pending or singles or in_flight:
-                while (pending or singles) and len(in_flight) < window:
+                while (pending or singles) and (self.cost is not None or len(in_flight) < workers):
                     if interrupted():
                         raise KeyboardInterrupt
                     if singles:
