@@ -59,3 +59,41 @@ class GAGeneration:
         rng = np.random.default_rng()
         rng.bit_generator.state = self.state
         next_generation(self.population, self.values, self.config, rng=rng)
+
+
+class GAGenerationOnWorkers:
+    """One generation of the paper's GA (48 individuals) dispatched in batches (issue 15 item 1).
+
+    ``serial`` evaluates in the benchmark's process; ``process-2`` on a pool of 2 worker
+    processes started (and warmed up) in ``setup``, so the time is the dispatch and the
+    evaluations, not the pool's start-up. Their ratio is the GA's parallel speed-up; the
+    whole command's is measured by ``python -m benchmarks.casestudy_speedup``.
+    """
+
+    params = [["serial", "process-2"]]
+    param_names = ["executor"]
+    timeout = 180
+
+    def setup(self, kind):
+        import functools
+
+        from replication.casestudy.dispatch import Dispatcher
+        from replication.casestudy.evaluate import executor
+
+        quiet()
+        self.config = GAConfig()
+        workers = None if kind == "serial" else 2
+        self.dispatcher = Dispatcher(functools.partial(executor, kind.split("-")[0], workers=workers))
+        self.fitness = Fitness(self.config)
+        rng = np.random.default_rng(2019)
+        population = initial_population(self.config, rng=rng)
+        values = self.dispatcher.evaluate(self.fitness, list(population))  # starts and warms the workers
+        fitness = np.array([v.value for v in values])
+        # a generation of new children (no cache here: every individual is evaluated)
+        self.children = list(next_generation(population, fitness, self.config, rng=rng))
+
+    def teardown(self, kind):
+        self.dispatcher.close()
+
+    def time_generation(self, kind):
+        self.dispatcher.evaluate(self.fitness, self.children)

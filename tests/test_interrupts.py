@@ -72,6 +72,8 @@ def _check_stopped(process, presser, run_dir, timeout=180):
     out, err = process.communicate(timeout=timeout)
     presser.join()
     assert process.returncode == 130, err
+    with pytest.raises(ProcessLookupError):  # no worker, cluster or resource tracker is left behind
+        os.killpg(process.pid, 0)
     assert "Traceback" not in err and err.rstrip().endswith("replication casestudy: interrupted"), err
     hint = f"resume with: replication casestudy --run-dir {run_dir} --resume"
     assert hint in err, err

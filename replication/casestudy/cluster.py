@@ -118,10 +118,18 @@ def _dask_executor(client) -> Iterator[cf.Executor]:  # type: ignore[no-untyped-
     that cannot be gathered) is not shown: nobody waits for those results any more. The
     levels are restored by :func:`_log_levels_restored` once everything is closed.
     """
+    from distributed.cfexecutor import ClientExecutor
+
     from replication.casestudy.daskplugin import register as one_blas_thread
 
+    class DaskExecutor(ClientExecutor):
+        """The client's executor, which also tells how many tasks the cluster runs at once."""
+
+        def worker_count(self) -> int:
+            return max(1, sum(client.nthreads().values()))
+
     one_blas_thread(client)
-    pool = client.get_executor(pure=False)
+    pool = DaskExecutor(client, pure=False)
     try:
         yield pool
     finally:

@@ -4,16 +4,19 @@ Evaluation goes through a :class:`concurrent.futures.Executor`: a serial one (in
 a local process pool, or a dask.distributed cluster (``Client.get_executor()``), so an
 expensive evaluator (the paper's 107 s SPH simulation) can be farmed out. The fitness is a
 pure function of the genome, so results do not depend on where or in which order
-evaluations run. An evaluation that raises or returns a non-finite value is recorded as a
-failure; an executor that breaks (a dead process-pool worker) is replaced and the batch
-retried; dask reschedules the tasks of a dead worker by itself.
+evaluations run. Evaluations are sent in batches sized to their measured cost
+(:mod:`.dispatch`). An evaluation that raises or returns a non-finite value is recorded as a
+failure; an executor that breaks (a dead process-pool worker) is replaced and the evaluations
+it lost are run again; dask reschedules the tasks of a dead worker by itself. Every process an
+executor starts is gone when it closes.
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
-import math
+import gc
+import multiprocessing.resource_tracker
 import os
 import warnings
 from collections.abc import Callable, Iterator, Sequence
@@ -21,12 +24,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from replication.casestudy.dispatch import Dispatcher, Outcome
 from replication.casestudy.ga import GAConfig, points_from_genome
-from replication.casestudy.interrupts import caused_by_interrupt, ignore_interrupts, quiet_spawn_context
+from replication.casestudy.interrupts import ignore_interrupts, quiet_spawn_context
 from replication.errors import DuplicatePointsWarning, InputError
 
 __all__ = [
     "EXECUTORS",
+    "Dispatcher",
     "Fitness",
     "Outcome",
     "SerialExecutor",
@@ -61,16 +66,11 @@ class Fitness:
         return surface_force(surface, self.config.jet, resolution=self.config.resolution).axial_force
 
 
-@dataclass(frozen=True)
-class Outcome:
-    """One evaluation: a finite value, or the error that stood in its way."""
-
-    value: float | None
-    error: str | None = None
-
-
 class SerialExecutor(cf.Executor):
     """Runs each task at once in the calling process (for tiny runs and debugging)."""
+
+    def worker_count(self) -> int:
+        return 1
 
     def submit(self, fn: Callable, /, *args, **kwargs) -> cf.Future:  # type: ignore[override]
         future: cf.Future = cf.Future()
@@ -88,12 +88,14 @@ def evaluate_batch(
     *,
     interrupted: Callable[[], bool] = lambda: False,
 ) -> list[Outcome]:
-    """Evaluate genomes on an executor; failures become Outcomes with an error message.
+    """Evaluate genomes on an open executor, in batches; failures become Outcomes with an error.
 
-    ``interrupted`` is polled before each submission and after each result (see
+    ``interrupted`` is polled between submissions and while waiting (see
     :class:`.interrupts.InterruptGuard`): once it is true the batch stops with
     :class:`KeyboardInterrupt`, pending evaluations are cancelled, and an evaluation that
-    failed because of the interrupt is never taken for a failed evaluation.
+    failed because of the interrupt is never taken for a failed evaluation. See
+    :class:`.dispatch.Dispatcher` for the batching, and for an executor that is replaced
+    when it breaks.
 
     Raises
     ------
@@ -102,36 +104,8 @@ def evaluate_batch(
     KeyboardInterrupt
         When the user interrupted the batch.
     """
-    futures: list[cf.Future] = []
-    outcomes: list[Outcome] = []
-    try:
-        for genome in genomes:
-            if interrupted():
-                raise KeyboardInterrupt
-            futures.append(pool.submit(fitness, genome))
-        for future in futures:
-            try:
-                value = future.result()
-            except cf.BrokenExecutor:
-                if interrupted():
-                    raise KeyboardInterrupt from None
-                raise
-            except Exception as exc:  # an evaluation failure is data, not a crash...
-                if interrupted() or caused_by_interrupt(exc):  # ...unless Ctrl-C caused it
-                    raise KeyboardInterrupt from exc
-                outcomes.append(Outcome(None, f"{type(exc).__name__}: {exc}"))
-                continue
-            if interrupted():
-                raise KeyboardInterrupt
-            if isinstance(value, (int, float, np.floating)) and math.isfinite(float(value)):
-                outcomes.append(Outcome(float(value)))
-            else:
-                outcomes.append(Outcome(None, f"non-finite fitness {value!r}"))
-    except BaseException:
-        for future in futures:
-            future.cancel()
-        raise
-    return outcomes
+    dispatcher = Dispatcher(lambda: contextlib.nullcontext(pool), retries=0)
+    return dispatcher.evaluate(fitness, genomes, interrupted=interrupted)
 
 
 def check_executor_options(kind: str, workers: int | None = None, scheduler: str | None = None) -> None:
@@ -220,15 +194,38 @@ def executor(
     if kind == "serial":
         yield SerialExecutor()
     elif kind == "process":
-        pool = cf.ProcessPoolExecutor(
-            max_workers=n, mp_context=quiet_spawn_context(), initializer=worker_initializer
-        )
-        try:
-            yield pool
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
+        with _resource_tracker_stopped():
+            pool = cf.ProcessPoolExecutor(
+                max_workers=n, mp_context=quiet_spawn_context(), initializer=worker_initializer
+            )
+            try:
+                yield pool
+            finally:
+                pool.shutdown(wait=True, cancel_futures=True)
+                del pool
     else:
         from replication.casestudy.cluster import dask_executor
 
-        with dask_executor(scheduler, n) as pool:
+        with _resource_tracker_stopped(), dask_executor(scheduler, n) as pool:
             yield pool
+
+
+@contextlib.contextmanager
+def _resource_tracker_stopped() -> Iterator[None]:
+    """Stop multiprocessing's resource tracker on exit if it was started inside the block.
+
+    Spawned worker processes (a process pool, a local dask cluster's nannies) start the
+    tracker, a process that otherwise outlives the command that started it by a moment,
+    left to exit once it notices its parent is gone (issue 15). It is stopped only if it
+    was not running before, and after the pool's semaphores are released, so that it has
+    nothing left to clean up and a tracker somebody else relies on is never touched.
+    """
+    tracker = multiprocessing.resource_tracker._resource_tracker
+    was_running = getattr(tracker, "_fd", None) is not None
+    try:
+        yield
+    finally:
+        stop = getattr(tracker, "_stop", None)
+        if not was_running and callable(stop):
+            gc.collect()  # release the pool's semaphores now, while the tracker is there to hear it
+            stop()

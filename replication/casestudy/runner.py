@@ -16,18 +16,16 @@ last checkpoint stays the run's state.
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import json
 import os
 import time
 from collections.abc import Callable, Iterator
-from contextlib import AbstractContextManager
 from pathlib import Path
 
 import numpy as np
 
 from replication.casestudy.checkpoints import WORST, GARun, checkpoint_path, genome_key, load_run
-from replication.casestudy.evaluate import Outcome, evaluate_batch
+from replication.casestudy.dispatch import Dispatcher, ExecutorFactory
 from replication.casestudy.ga import GAConfig, initial_population, next_generation
 from replication.casestudy.interrupts import InterruptGuard
 from replication.casestudy.rundir import read_config, write_config
@@ -35,6 +33,7 @@ from replication.errors import OutputError
 from replication.io.atomic import atomic_write_text
 
 __all__ = [
+    "Dispatcher",
     "ExecutorFactory",
     "GARun",
     "check_run_dir",
@@ -45,40 +44,17 @@ __all__ = [
     "run_ga",
 ]
 
-ExecutorFactory = Callable[[], AbstractContextManager[cf.Executor]]
-MAX_EXECUTOR_RETRIES = 3
-
 
 def check_run_dir(run_dir: str | os.PathLike[str], config: GAConfig) -> Path:
     """Create the run directory or check that it holds a run of the same configuration."""
     return write_config(run_dir, config)
 
 
-class _Pool:
-    """An executor from a factory, replaced when it breaks."""
-
-    def __init__(self, factory: ExecutorFactory) -> None:
-        self.factory = factory
-        self.context: AbstractContextManager[cf.Executor] | None = None
-        self.executor: cf.Executor | None = None
-
-    def get(self) -> cf.Executor:
-        if self.executor is None:
-            self.context = self.factory()
-            self.executor = self.context.__enter__()
-        return self.executor
-
-    def close(self) -> None:
-        if self.context is not None:
-            context, self.context, self.executor = self.context, None, None
-            context.__exit__(None, None, None)
-
-
 def _evaluate(
     state: GARun,
     genomes: np.ndarray,
     fitness: Callable[[np.ndarray], float],
-    pool: _Pool,
+    dispatcher: Dispatcher,
     guard: InterruptGuard,
 ) -> dict[str, int]:
     """Fitness of a population into ``state.fitness``, reusing the cache; returns the counts."""
@@ -87,16 +63,7 @@ def _evaluate(
     for key, genome in zip(keys, genomes):
         if key not in state.cache and key not in todo:
             todo[key] = genome
-    outcomes: list[Outcome] = []
-    for attempt in range(MAX_EXECUTOR_RETRIES + 1):
-        try:
-            outcomes = evaluate_batch(pool.get(), fitness, list(todo.values()), interrupted=guard.requested)
-            break
-        except cf.BrokenExecutor:
-            pool.close()  # a dead worker took the pool down: retry the batch on a new one
-            guard.check()
-            if attempt == MAX_EXECUTOR_RETRIES:
-                raise
+    outcomes = dispatcher.evaluate(fitness, list(todo.values()), interrupted=guard.requested)
     failed = 0
     for (key, genome), outcome in zip(todo.items(), outcomes):
         state.cache[key] = outcome.value
@@ -124,7 +91,8 @@ def run_ga(
     run: int,
     *,
     run_dir: str | os.PathLike[str],
-    pool_factory: ExecutorFactory,
+    pool_factory: ExecutorFactory | None = None,
+    dispatcher: Dispatcher | None = None,
     fitness: Callable[[np.ndarray], float] | None = None,
     resume: bool = False,
     on_generation: Callable[[GARun], None] | None = None,
@@ -138,8 +106,12 @@ def run_ga(
         Run number; the run's generator is seeded with ``[config.seed, run]``.
     run_dir : path-like
         Where ``config.json`` and the checkpoints live.
-    pool_factory : callable
-        Returns a context manager yielding the executor (see :func:`.evaluate.executor`).
+    pool_factory : callable, optional
+        Returns a context manager yielding the executor (see :func:`.evaluate.executor`);
+        the executor is opened for this run and closed at its end.
+    dispatcher : Dispatcher, optional
+        Instead of ``pool_factory``: an open dispatcher shared with other runs (one
+        executor for a whole command); it stays open. Give exactly one of the two.
     fitness : callable, optional
         Genome -> fitness, picklable for process pools (default: the jet force,
         :class:`.evaluate.Fitness`).
@@ -160,6 +132,8 @@ def run_ga(
     """
     from replication.casestudy.evaluate import Fitness
 
+    if (pool_factory is None) == (dispatcher is None):
+        raise TypeError("run_ga needs exactly one of pool_factory and dispatcher")
     run_dir = check_run_dir(run_dir, config)
     fitness = fitness or Fitness(config)
     state = load_run(run_dir, run, config)
@@ -169,7 +143,9 @@ def run_ga(
         )
     if state is not None and state.generation >= config.generations:
         return state
-    pool = _Pool(pool_factory)
+    own = dispatcher is None
+    pool = Dispatcher(pool_factory) if pool_factory is not None else dispatcher
+    assert pool is not None
     try:
         with InterruptGuard() as guard:
             while state is None or state.generation < config.generations:
@@ -194,7 +170,8 @@ def run_ga(
                     on_generation(state)
                 guard.check()  # a stop requested while checkpointing: the generation is saved
     finally:
-        pool.close()
+        if own:
+            pool.close()
     return state
 
 

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from replication.casestudy.dispatch import Dispatcher
 from replication.casestudy.evaluate import Fitness
 from replication.casestudy.ga import GAConfig, points_from_genome, random_genome
 from replication.casestudy.jet import surface_force
@@ -197,7 +198,8 @@ def run_casestudy(
     run_dir : path-like
         Directory of the GA's configuration and checkpoints.
     pool_factory : callable
-        Context manager factory of the executor evaluating fitness.
+        Context manager factory of the executor evaluating fitness; one executor is opened
+        for all runs and closed when they are done.
     resume : bool
         Continue the runs from their checkpoints.
     on_generation : callable, optional
@@ -214,12 +216,15 @@ def run_casestudy(
     Paper section 6, Figs. 8 and 9.
     """
     started = time.perf_counter()
-    runs, histories, best = [], [], {}
-    for k in range(config.runs):
-        t0 = time.perf_counter()
-        state = run_ga(config, k, run_dir=run_dir, pool_factory=pool_factory, resume=resume,
-                       on_generation=on_generation)  # fmt: skip
-        wall = time.perf_counter() - t0
+    runs, histories, best, states = [], [], {}, []
+    with Dispatcher(pool_factory) as dispatcher:  # one executor for every run of the command
+        for k in range(config.runs):
+            t0 = time.perf_counter()
+            state = run_ga(config, k, run_dir=run_dir, dispatcher=dispatcher, resume=resume,
+                           on_generation=on_generation)  # fmt: skip
+            states.append((state, time.perf_counter() - t0))
+    for state, wall in states:
+        k = state.run
         history = state.history_frame()
         histories.append(history)
         best[k] = points_from_genome(state.best_genome, config)

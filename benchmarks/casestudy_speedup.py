@@ -1,0 +1,133 @@
+"""Speed-up of the case study on worker processes (issue 15 item 1).
+
+Run from the project's root: ``python -m benchmarks.casestudy_speedup [--repeats 3]``.
+
+Runs the full ``replication casestudy`` command (the paper's settings: 3 runs x 50
+generations x 48) with ``--workers 1`` (serial, in process), ``--workers 2`` (a process pool)
+and ``--executor dask --workers 2`` (a local dask cluster), each into its own scratch
+directories, in rounds: every round runs each configuration once, in an order rotated from
+round to round, so that the load of a shared machine falls on all of them alike. For each
+run it records
+
+* ``command_s``: the wall time of the whole command (a fresh process: start-up, GA,
+  reference shapes, the timing of one evaluation, the report and its figures);
+* ``ga_s``: the GA alone (the sum of the generations' wall times, executor start-up
+  included, from the run's provenance);
+* ``cpu_s``: CPU time of the command and its children (the work, whatever the load).
+
+Speed-ups are the serial median over the parallel median, and per round (the serial run
+over the parallel run of the same round: median and range). The serial part of the command
+(everything but the GA) bounds the command's speed-up by Amdahl's law; the table gives that
+bound too. The output is a markdown table (stdout) and, with ``--json FILE``, the raw runs.
+Timings on a shared machine are loaded-machine numbers: the output gives the load average
+before each run and says so when it exceeds half the number of CPUs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+CONFIGS: dict[str, list[str]] = {
+    "serial (--workers 1)": ["--workers", "1"],
+    "process pool (--workers 2)": ["--executor", "process", "--workers", "2"],
+    "dask LocalCluster (2 workers)": ["--executor", "dask", "--workers", "2"],
+}
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def run_once(options: list[str], scratch: Path, settings: list[str]) -> dict[str, float]:
+    """One ``replication casestudy`` command; its wall, GA and CPU seconds."""
+    run_dir, out = Path(tempfile.mkdtemp(dir=scratch)), Path(tempfile.mkdtemp(dir=scratch))
+    command = [sys.executable, "-m", "replication", "casestudy", *settings, *options]
+    command += ["--run-dir", str(run_dir / "run"), "--output-dir", str(out)]
+    cpu, started = _children_cpu(), time.perf_counter()
+    done = subprocess.run(command, cwd=scratch, capture_output=True, text=True)
+    wall, cpu = time.perf_counter() - started, _children_cpu() - cpu
+    if done.returncode != 0:
+        raise RuntimeError(f"{' '.join(command)} failed:\n{done.stderr}")
+    record = json.loads((out / "data" / "casestudy_provenance.json").read_text())
+    return {"command_s": wall, "ga_s": float(record["ga_seconds"]), "cpu_s": cpu}
+
+
+def _stats(values: list[float]) -> str:
+    v = np.asarray(values)
+    return f"{np.median(v):.2f} [{v.min():.2f}, {v.max():.2f}]"
+
+
+def summarize(runs: dict[str, list[dict[str, float]]]) -> str:
+    """Markdown: medians with ranges, speed-ups of medians and per round, Amdahl's bound."""
+    serial_name = next(iter(runs))
+    serial = runs[serial_name]
+    lines = [
+        "| configuration | command s: median [min, max] | GA s | CPU s "
+        "| speed-up command (medians; per round median [min, max]) | speed-up GA (medians; per round) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, rows in runs.items():
+        cells = [name] + [_stats([r[k] for r in rows]) for k in ("command_s", "ga_s", "cpu_s")]
+        for key in ("command_s", "ga_s"):
+            ratio = np.median([r[key] for r in serial]) / np.median([r[key] for r in rows])
+            paired = [s[key] / r[key] for s, r in zip(serial, rows)]
+            cells.append(f"{ratio:.2f}x; {_stats(paired)}")
+        lines.append("| " + " | ".join(cells) + " |")
+    rest = np.median([r["command_s"] - r["ga_s"] for r in serial])
+    ga = np.median([r["ga_s"] for r in serial])
+    bound = (rest + ga) / (rest + ga / 2)
+    lines.append("")
+    lines.append(
+        f"Serial run: GA {ga:.2f} s, everything else {rest:.2f} s (start-up, reference shapes, timing, "
+        f"report); Amdahl's bound for the command on 2 workers with a perfect GA speed-up: {bound:.2f}x."
+    )
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3, help="rounds (default 3)")
+    parser.add_argument("--quick", action="store_true", help="the --quick GA, to try the script")
+    parser.add_argument("--only", choices=list(CONFIGS), action="append", help="configurations to run")
+    parser.add_argument("--json", metavar="FILE", help="write the raw runs as JSON")
+    args = parser.parse_args(argv)
+    settings = ["--quick"] if args.quick else []
+    names = args.only or list(CONFIGS)
+    if names[0] != next(iter(CONFIGS)):
+        names.insert(0, next(iter(CONFIGS)))  # the serial run is the reference
+    runs: dict[str, list[dict[str, float]]] = {name: [] for name in names}
+    loads = []
+    with tempfile.TemporaryDirectory(prefix="casestudy-speedup-") as scratch:
+        for k in range(args.repeats):
+            order = names[k % len(names) :] + names[: k % len(names)]
+            for name in order:
+                loads.append(os.getloadavg()[0])
+                result = run_once(CONFIGS[name], Path(scratch), settings)
+                runs[name].append(result)
+                print(f"round {k + 1}: {name}: {result}", file=sys.stderr, flush=True)
+    cpus, load = os.cpu_count() or 1, max(loads)
+    loaded = " (a LOADED machine: these are loaded-machine numbers)" if load > cpus * 0.5 else ""
+    print(
+        f"Full case study{' (--quick)' if args.quick else ''}, {args.repeats} rounds, {cpus} CPUs, "
+        f"1-minute load average before each run {min(loads):.1f}-{load:.1f}{loaded}"
+    )
+    print()
+    print(summarize(runs))
+    if args.json:
+        Path(args.json).write_text(json.dumps({"loads": loads, "cpus": cpus, "runs": runs}, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
