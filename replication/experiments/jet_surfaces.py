@@ -165,9 +165,10 @@ def ga_winners(
 
     The runs are read from ``run_dir`` when their checkpoints are there (complete runs are
     not re-run; a partial one is resumed) and run otherwise: the GA is deterministic (run
-    k is seeded with ``[config.seed, k]``), so a re-run gives the committed case study's
-    populations. Individuals are ranked by their thin-sheet fitness (ties: population
-    order) and kept when their ADT surface differs from every better one's.
+    k is seeded with ``[config.seed, k]``), so a re-run by the same code gives the same
+    populations (code that breaks triangulation ties differently may not). Individuals are
+    ranked by their thin-sheet fitness (ties: population order) and kept when their ADT
+    surface differs from every better one's.
 
     Notes
     -----

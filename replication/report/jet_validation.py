@@ -126,7 +126,8 @@ def render_jet_validation(out_dir: str | os.PathLike[str]) -> Path:
     ga_text = (
         f"the {config['ga_top']} best distinct surfaces of the final population of each of the "
         f"{ga['runs']} runs of the case study's GA (thin-sheet fitness, population {ga['population']}, "
-        f"{ga['generations']} generations, seed {ga['seed']}: the committed case study's runs)"
+        f"{ga['generations']} generations, seed {ga['seed']}: the case study's settings, run by the "
+        "code named under 'Surfaces' origin' below)"
         if ga
         else "none (not in this run)"
     )
