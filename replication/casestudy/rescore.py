@@ -107,7 +107,7 @@ def top_distinct(state: GARun, config: GAConfig, top: int) -> list[Candidate]:
     -----
     Paper section 6: the GA's optimised surfaces (Fig. 9).
     """
-    from replication.experiments.jet_surfaces import surface_signature
+    from replication.casestudy.mesh import surface_signature
 
     if isinstance(top, bool) or not isinstance(top, (int, np.integer)) or top < 1:
         raise InputError(f"top must be a positive integer, got top={top!r}")
