@@ -38,7 +38,7 @@ def rescore_cost(
     Parameters
     ----------
     surfaces : DataFrame
-        The re-scored surfaces (``status``, ``cached``, ``sph_wall_s``).
+        The re-scored surfaces (``key``, ``status``, ``cached``, ``sph_wall_s``).
     wall_seconds : float
         Wall time of the re-scoring.
     thin_sheet_seconds : float
@@ -54,6 +54,7 @@ def rescore_cost(
     -----
     Paper section 6: 107.53 s per SPH simulation on a GPU; the full GA's individuals.
     """
+    surfaces = surfaces.drop_duplicates("key")  # a surface listed twice was simulated once
     ok = surfaces[surfaces["status"] == "ok"]
     per_sim = float(ok["sph_wall_s"].median()) if len(ok) else math.nan
     spread = (float(ok["sph_wall_s"].min()), float(ok["sph_wall_s"].max())) if len(ok) else (math.nan,) * 2

@@ -92,7 +92,7 @@ def rescore_section(out: Path) -> str:
     d = read_csv(data / RESCORE_FILES[0], COLUMNS)
     cost = read_csv(data / RESCORE_FILES[1], ("item", "value", "unit", "note"))
     prov = read_json(data / "casestudy_provenance.json")
-    d = d.assign(_ok=d["status"] == "ok", same_as=d["same_as"].fillna("").astype(str))
+    d = d.assign(_ok=d["status"] == "ok", same_as=d["same_as"].astype(object).where(d["same_as"].notna(), ""))
     ranked = d.sort_values(["_ok", "sph_N"], ascending=[False, False], kind="stable").reset_index(drop=True)
     rows = []
     for i, r in ranked.iterrows():
