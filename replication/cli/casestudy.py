@@ -23,10 +23,14 @@ from typing import Any
 
 from replication.cli.casestudy_sph import (
     add_rescore_options,
+    check_fitness_record,
     report_rescored,
     rescore_config,
     rescore_hint,
     rescore_summary,
+    solver_record,
+    sph_fitness,
+    write_fitness_record,
 )
 from replication.cli.common import emit_json, positive_int, seed
 from replication.cli.outputs import (
@@ -79,7 +83,9 @@ class Plan:
     created: tuple[Path, ...]  # directories the command will create for the run (removed on failure)
     quick: bool = False  # the --quick settings (also when resumed without --quick)
     done_generations: int = 0
-    rescore: Any = None  # RescoreConfig: the best surfaces re-scored by SPH (issue 11)
+    rescore: Any = None  # RescoreConfig of --rescore sph (issue 11)
+    solver: Any = None  # the GA's fitness when it is SPH (fitness.json), else None
+    sph: Any = None  # RescoreConfig of the SPH settings (either use)
 
 
 def _requested_config(args: argparse.Namespace) -> Any:
@@ -175,12 +181,20 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
                     "directory"
                 )
     check_writable_dir(run_dir, "--run-dir" if args.run_dir else "the GA run directory")
+    solver = solver_record(args, rescore)
+    check_fitness_record(run_dir, solver, args.resume)
     done = 0
     if run_dir.is_dir():  # validate every checkpoint now, not after minutes of computing
         for k in range(config.runs):
             state = load_run(run_dir, k, config)
             done += 0 if state is None else state.generation
     default_out, note = _default_report_dir(config, run_dir)
+    if solver is not None and not note:  # the committed reports are the thin-sheet GA's
+        default_out = run_dir / "report"
+        note = (
+            f"--solver sph: the report goes to {default_out}/, not {DEFAULT_DIR}/ (name a directory with "
+            "--output-dir)"
+        )
     out = Path(args.output_dir) if args.output_dir else default_out
     check_writable_dir(out, "--output-dir" if args.output_dir else "the reports directory")
     from replication.experiments.casestudy import quick_ga_config
@@ -192,7 +206,8 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     return Plan(
         config=config, run_dir=run_dir, resume=args.resume, out=out, hint=shlex.join(hint),
         note="" if args.output_dir else note, created=missing_dirs(run_dir),
-        quick=config == quick_ga_config(), done_generations=done, rescore=rescore,
+        quick=config == quick_ga_config(), done_generations=done,
+        rescore=rescore if args.rescore else None, solver=solver, sph=rescore,
     )  # fmt: skip
 
 
@@ -206,7 +221,9 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
     action = "resuming" if plan.resume else "after an interruption, resume with"
     print(f"GA run directory: {plan.run_dir} ({action}: {plan.hint})", file=sys.stderr)
     pool = functools.partial(executor, args.executor, workers=args.workers, scheduler=args.scheduler)
+    fitness = sph_fitness(plan, args, workers=_workers(args))
     try:
+        write_fitness_record(plan.run_dir, plan.solver)
         with Progress(
             config.runs * config.generations, "GA generations", initial=plan.done_generations
         ) as bar:
@@ -217,7 +234,7 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
             results = run_casestudy(
                 config, run_dir=plan.run_dir, pool_factory=pool, resume=plan.resume, on_generation=tick,
                 command=args.invocation, quick=plan.quick, timing_repeats=20 if plan.quick else 100,
-                rescore=plan.rescore, on_rescored=report_rescored,
+                rescore=plan.rescore, on_rescored=report_rescored, fitness=fitness, solver=plan.solver,
             )  # fmt: skip
     except KeyboardInterrupt:
         from replication.casestudy.rundir import CONFIG_NAME
@@ -233,6 +250,15 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
         raise
     save_casestudy_data(results, plan.out)
     return results, render_casestudy(plan.out)
+
+
+def _workers(args: argparse.Namespace) -> int:
+    """Evaluations at once, for the cost estimate: the local workers (a named cluster: 1, unknown)."""
+    import os
+
+    if args.executor == "serial" or (args.scheduler and not args.workers):
+        return 1
+    return args.workers or os.cpu_count() or 1
 
 
 def _cmd_casestudy(args: argparse.Namespace) -> int:

@@ -1,4 +1,9 @@
-"""The SPH options of ``replication casestudy``: ``--rescore sph --top K`` and its settings."""
+"""The SPH options of ``replication casestudy``: ``--rescore sph --top K``, ``--solver sph``.
+
+A run scored by SPH records its solver and settings in ``RUN_DIR/fitness.json``; a run
+directory without one holds a thin-sheet run. Resuming with another fitness is refused, so
+one run never mixes two fitnesses.
+"""
 
 from __future__ import annotations
 
@@ -8,15 +13,30 @@ from typing import Any
 
 from replication.cli.common import positive_int
 
-#: The SPH options (dest names); they need --rescore sph.
+#: The SPH options (dest names); they need --rescore sph or --solver sph.
 SPH_OPTIONS = ("top", "particle_radius", "duration", "sph_timeout", "cache_dir")
+#: The record of a run's fitness in its run directory (absent: the thin-sheet model).
+FITNESS_NAME = "fitness.json"
+#: An estimate above this many hours is refused without --yes.
+CONFIRM_HOURS = 1.0
 
 
 def add_rescore_options(p: argparse.ArgumentParser) -> None:
     """``--rescore`` and the SPH options of ``replication casestudy``."""
     from replication.cli.sph import positive_float
 
-    g = p.add_argument_group('SPH re-scoring (the fitness of record; needs pip install ".[sph]")')
+    g = p.add_argument_group('SPH, the fitness of record (needs pip install ".[sph]")')
+    g.add_argument(
+        "--solver",
+        choices=("sheet", "sph"),
+        help="the GA's fitness: sheet, the thin-sheet model (default, milliseconds), or sph, an SPH "
+        "simulation of every individual (seconds to minutes each; the cost is estimated first)",
+    )
+    g.add_argument(
+        "--yes",
+        action="store_true",
+        help=f"--solver sph: start even when the estimate exceeds {CONFIRM_HOURS:g} h",
+    )
     g.add_argument(
         "--rescore",
         choices=("sph",),
@@ -42,22 +62,35 @@ def add_rescore_options(p: argparse.ArgumentParser) -> None:
 
 
 def rescore_config(args: argparse.Namespace, config: Any) -> Any:
-    """The :class:`RescoreConfig` of the options, checked before any work; None without --rescore.
+    """The :class:`RescoreConfig` of the options, checked before any work; None without SPH.
+
+    With ``--solver sph`` alone it carries the settings of the fitness (``top`` unused).
 
     Raises
     ------
     InputError
-        An SPH option without ``--rescore sph``, settings the SPH backend refuses.
+        An SPH option without ``--rescore sph`` or ``--solver sph`` (``--top`` without
+        ``--rescore``), settings the SPH backend refuses.
     SolverUnavailableError
         The engine is not installed (the message names ``pip install ".[sph]"``).
     """
     from replication.errors import InputError
 
+    solver = getattr(args, "solver", None) == "sph"
+    if solver and getattr(args, "rescore", None) is not None:
+        raise InputError(
+            "--rescore sph re-scores the thin-sheet GA's winners; with --solver sph every individual is "
+            "already scored by SPH: give one of them"
+        )
+    if getattr(args, "yes", False) and not solver:
+        raise InputError("--yes applies only with --solver sph")
     if getattr(args, "rescore", None) is None:
         given = [name for name in SPH_OPTIONS if getattr(args, name, None) is not None]
-        if given:
-            raise InputError(f"--{given[0].replace('_', '-')} applies only with --rescore sph")
-        return None
+        if given and (given[0] == "top" or not solver):
+            need = "--rescore sph" if given[0] == "top" else "--rescore sph or --solver sph"
+            raise InputError(f"--{given[0].replace('_', '-')} applies only with {need}")
+        if not solver:
+            return None
     from pathlib import Path
 
     from replication.casestudy import sph
@@ -83,10 +116,14 @@ def rescore_config(args: argparse.Namespace, config: Any) -> Any:
 
 
 def rescore_hint(args: argparse.Namespace) -> list[str]:
-    """The re-scoring options to repeat in the resume hint."""
-    if getattr(args, "rescore", None) is None:
+    """The SPH options to repeat in the resume hint."""
+    words = []
+    if getattr(args, "solver", None) is not None:
+        words += ["--solver", args.solver] + (["--yes"] if args.yes else [])
+    if getattr(args, "rescore", None) is not None:
+        words += ["--rescore", args.rescore]
+    if not words:
         return []
-    words = ["--rescore", args.rescore]
     for name in SPH_OPTIONS:
         value = getattr(args, name, None)
         if value is not None:
@@ -125,3 +162,84 @@ def rescore_summary(results: Any) -> list[str]:
         if len(bucket):
             lines.append(f"pelton bucket by SPH: {bucket.iloc[0]['sph_N']:.4g} N")
     return lines
+
+
+def solver_record(args: argparse.Namespace, rescore: Any) -> dict[str, Any] | None:
+    """What the GA's fitness is (for ``fitness.json`` and the provenance); None: the thin-sheet model."""
+    if getattr(args, "solver", None) != "sph":
+        return None
+    return {"solver": "sph", "settings": rescore.settings.as_dict()}
+
+
+def check_fitness_record(run_dir: Any, record: dict[str, Any] | None, resume: bool) -> None:
+    """Refuse a run directory whose recorded fitness differs from the requested one."""
+    import json
+    from pathlib import Path
+
+    from replication.errors import InputError
+
+    path = Path(run_dir) / FITNESS_NAME
+    recorded = json.loads(path.read_text()) if path.is_file() else None
+    has_run = (Path(run_dir) / "config.json").is_file()
+    if not has_run and not resume:
+        return
+    if recorded != record:
+
+        def name(r: Any) -> str:
+            if r is None:
+                return "the thin-sheet model"
+            changed = {k: v for k, v in r.get("settings", {}).items() if v != defaults.get(k)}
+            return "SPH (" + (", ".join(f"{k} {v}" for k, v in sorted(changed.items())) or "defaults") + ")"
+
+        from replication.casestudy.sph.settings import SPHSettings
+
+        defaults = SPHSettings().as_dict()
+
+        raise InputError(
+            f"{run_dir} holds a run scored by {name(recorded)}, not {name(record)}: resume it with its "
+            "own --solver and SPH options, or start a new run directory"
+        )
+
+
+def write_fitness_record(run_dir: Any, record: dict[str, Any] | None) -> None:
+    import json
+    from pathlib import Path
+
+    from replication.io.atomic import atomic_write_text
+
+    if record is not None:
+        Path(run_dir).mkdir(parents=True, exist_ok=True)
+        atomic_write_text(Path(run_dir) / FITNESS_NAME, json.dumps(record, sort_keys=True) + "\n")
+
+
+def sph_fitness(plan: Any, args: argparse.Namespace, workers: int) -> Any:
+    """The SPH fitness of ``--solver sph`` after its cost estimate (stderr); None for the thin sheet.
+
+    Raises
+    ------
+    InputError
+        An estimate above ``CONFIRM_HOURS`` without ``--yes``.
+    """
+    if plan.solver is None:
+        return None
+    from replication.casestudy.sph_fitness import SPHFitness, estimate
+    from replication.errors import InputError
+
+    r = plan.sph
+    fitness = SPHFitness(plan.config, r.settings, r.cache_dir, r.timeout)
+    print(
+        "--solver sph: measuring one SPH simulation (the flat plate) for the cost estimate", file=sys.stderr
+    )
+    e = estimate(fitness, workers=workers)
+    print(
+        f"--solver sph: {e.seconds_per_simulation:.3g} s per simulation"
+        f"{' (from the cache)' if e.cached else ''} x at most {e.evaluations} evaluations / {e.workers} "
+        f"worker(s) = at most {e.hours:.3g} h (the genome cache saves repeats)",
+        file=sys.stderr,
+    )
+    if e.hours > CONFIRM_HOURS and not args.yes:
+        raise InputError(
+            f"the estimated cost, {e.hours:.3g} h, exceeds {CONFIRM_HOURS:g} h: pass --yes to start, or "
+            "coarsen with --particle-radius, --duration or fewer --runs/--generations/--population"
+        )
+    return fitness

@@ -197,6 +197,8 @@ def run_casestudy(
     rescore: RescoreConfig | None = None,
     on_rescored: Callable[[Any], None] | None = None,
     simulate: Callable[..., Any] | None = None,
+    fitness: Callable[[np.ndarray], float] | None = None,
+    solver: dict[str, Any] | None = None,
 ) -> CaseStudyResults:
     """Run the case study: ``config.runs`` GA runs, reference shapes, cost of an evaluation.
 
@@ -225,6 +227,11 @@ def run_casestudy(
         Called with each re-scored surface as it becomes known (progress display).
     simulate : callable, optional
         Replaces the SPH simulation (tests; see :func:`.sph_batch.score_surfaces`).
+    fitness : callable, optional
+        The GA's fitness (default: the thin-sheet model's; ``--solver sph``:
+        :class:`~replication.casestudy.sph_fitness.SPHFitness`).
+    solver : dict, optional
+        What ``fitness`` is, recorded in the provenance (and stated by the report).
 
     Notes
     -----
@@ -236,7 +243,7 @@ def run_casestudy(
         for k in range(config.runs):
             t0 = time.perf_counter()
             state = run_ga(config, k, run_dir=run_dir, dispatcher=dispatcher, resume=resume,
-                           on_generation=on_generation)  # fmt: skip
+                           on_generation=on_generation, fitness=fitness)  # fmt: skip
             states.append((state, time.perf_counter() - t0))
         rescored = None
         if rescore is not None:  # the GA's winners judged by SPH, on the same executor
@@ -260,7 +267,7 @@ def run_casestudy(
     runs_frame = pd.DataFrame(runs)
     shapes = _shapes(config)
     evaluation = _evaluation_cost(config, timing_repeats)
-    extra: dict[str, Any] = {}
+    extra: dict[str, Any] = {} if solver is None else {"solver": solver}
     cost = None
     if rescored is not None:
         extra["rescore"] = {"top": rescore.top, "settings": rescore.settings.as_dict(),

@@ -200,6 +200,19 @@ def render_casestudy(out_dir: str | os.PathLike[str]) -> Path:
         if differ
         else ""
     )
+    solver = prov.get("solver")  # --solver sph (issue 11): the GA's fitness was SPH
+    if solver:
+        sph = solver.get("settings", {})
+        method = str(sph.get("method", "?")).upper()
+        radius = 1e3 * float(sph.get("particle_radius", "nan"))
+        duration = 1e3 * float(sph.get("duration", "nan"))
+        quick += (
+            "\n> **Fitness: SPH.** Every individual of the GA was scored by an SPH simulation "
+            f"(SPlisHSPlasH, {method}, particle radius {radius:g} mm, {duration:g} ms simulated; a failed "
+            "simulation scores worst): the history, the runs and the best surfaces are SPH forces. The "
+            "reference shapes, the cost of an evaluation and the model described below are the thin-sheet "
+            "model's.\n"
+        )
     settings = "the paper's" if not differ else "the paper's except as stated at the top"
     this_run = (
         "replication casestudy               # the paper's settings (this report)"
