@@ -18,7 +18,7 @@ from replication.casestudy import rescore as rescore_module
 from replication.casestudy.checkpoints import WORST, GARun
 from replication.casestudy.ga import GAConfig, genome_from_points, points_from_genome, random_genome
 from replication.casestudy.rescore import RescoreConfig, rescore_runs, top_distinct
-from replication.casestudy.shapes import flat_plate_cloud, pelton_bucket_cloud
+from replication.casestudy.shapes import flat_plate_cloud, pelton_bucket_cloud, pelton_bucket_surface
 from replication.casestudy.sph import SPHSettings, engine_available
 from replication.casestudy.sph import score as sph_score
 from replication.cli import main
@@ -208,7 +208,10 @@ def test_casestudy_rescore_runs_end_to_end_and_resumes_from_the_cache(
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
-        (["--particle-radius", "1"], "--particle-radius applies only with --rescore sph"),
+        (["--particle-radius", "1"], "--particle-radius applies only with --rescore sph or --solver sph"),
+        (["--solver", "sph", "--top", "3"], "--top applies only with --rescore sph"),
+        (["--solver", "sph", "--rescore", "sph"], "give one of them"),
+        (["--yes"], "--yes applies only with --solver sph"),
         (["--top", "3"], "--top applies only with --rescore sph"),
         (["--rescore", "sph", "--duration", "5"], "leaves no quasi-steady window"),
         (["--rescore", "sph", "--particle-radius", "9"], "particle_radius must lie between 0.1 and 5 mm"),
@@ -252,3 +255,55 @@ def test_the_real_engine_rescores_a_run_at_coarse_particles(tmp_path):
     again = rescore_runs([run], CONFIG, config).surfaces
     assert again["cached"].all() and again["sph_N"].tolist() == f["sph_N"].tolist()
     assert rescore_module.REFERENCES == ("flat plate", "pelton bucket")
+
+
+def test_solver_sph_scores_every_individual_and_resumes_from_its_checkpoints(
+    tmp_path, monkeypatch, capsys, fake_engine
+):
+    monkeypatch.chdir(tmp_path)
+    args = [*TINY, "--run-dir", "run", "--solver", "sph", "--particle-radius", "1", "--duration", "16",
+            "--cache-dir", "cache", "--json"]  # fmt: skip
+    assert main(args) == 0
+    captured = capsys.readouterr()
+    out = json.loads(captured.out)
+    assert "--solver sph: 0.02 s per simulation x at most 12 evaluations / 1 worker(s)" in captured.err
+    # fake force 1 + mean height: the bucket (in the initial population) wins by SPH
+    bucket = 1 + float(pelton_bucket_surface().points[:, 2].mean())
+    assert math.isclose(out["runs"][0]["best_N"], bucket, rel_tol=1e-12)
+    assert out["report"] == "run/report/casestudy.md"  # never the committed reports/
+    report = (tmp_path / "run" / "report" / "casestudy.md").read_text()
+    assert "**Fitness: SPH.**" in report and "particle radius 1 mm, 16 ms simulated" in report
+    record = json.loads((tmp_path / "run" / "fitness.json").read_text())
+    assert record["solver"] == "sph" and record["settings"]["particle_radius"] == 0.001
+    # every distinct individual once; the flat plate measured for the estimate is one of them
+    assert len(CALLS) == out["evaluations"]
+    # resumed: nothing simulated again; another fitness for the same run is refused
+    CALLS.clear()
+    assert main([*args, "--resume"]) == 0
+    assert json.loads(capsys.readouterr().out)["runs"] == out["runs"] and CALLS == []
+    assert main([*TINY, "--run-dir", "run", "--resume"]) == 1
+    assert (
+        "scored by SPH (duration 0.016, particle_radius 0.001), not the thin-sheet model"
+        in capsys.readouterr().err
+    )
+
+
+def test_solver_sph_prints_its_estimate_and_refuses_more_than_an_hour_without_yes(
+    tmp_path, monkeypatch, capsys, fake_engine
+):
+    monkeypatch.chdir(tmp_path)
+    import replication.casestudy.sph_fitness as sph_fitness
+
+    real = sph_fitness.estimate
+
+    def hours(fitness, *, workers):  # one simulation measured at 1000 s
+        e = real(fitness, workers=workers)
+        return sph_fitness.Estimate(1000.0, e.evaluations, e.workers, e.cached)
+
+    monkeypatch.setattr(sph_fitness, "estimate", hours)
+    args = [*TINY, "--run-dir", "run", "--solver", "sph", "--particle-radius", "1", "--duration", "16",
+            "--cache-dir", "cache"]  # fmt: skip
+    assert main(args) == 1
+    err = capsys.readouterr().err
+    assert "1e+03 s per simulation x at most 12 evaluations / 1 worker(s) = at most 3.33 h" in err
+    assert "exceeds 1 h: pass --yes" in err and not (tmp_path / "run" / "run-0.json").exists()
