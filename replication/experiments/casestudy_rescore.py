@@ -68,7 +68,8 @@ def rescore_cost(
     source = (
         "this run's distinct evaluations (the paper's settings)"
         if paper
-        else f"{PAPER_EVALUATIONS} less {100 * share:.1f} % saved by the genome cache in this run (estimate)"
+        else f"{PAPER_EVALUATIONS} less {100 * share:.1f} % saved by the genome cache in this run (an "
+        f"estimate: the share depends on the GA's size; at most {PAPER_EVALUATIONS})"
     )
     rows = [
         ("thin-sheet evaluation", 1e3 * thin_sheet_seconds, "ms", "median, serial (ADT + jet model)"),
