@@ -207,7 +207,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
         config=config, run_dir=run_dir, resume=args.resume, out=out, hint=shlex.join(hint),
         note="" if args.output_dir else note, created=missing_dirs(run_dir),
         quick=config == quick_ga_config(), done_generations=done,
-        rescore=rescore if args.rescore else None, solver=solver, sph=rescore,
+        rescore=rescore if getattr(args, "rescore", None) else None, solver=solver, sph=rescore,
     )  # fmt: skip
 
 
