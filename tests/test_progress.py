@@ -45,3 +45,36 @@ def test_terminal_bar_stays_visible_when_finished():
             bar.update(1)
     final = screen.getvalue().rstrip("\n").split("\r")[-1]
     assert final.startswith("Monte Carlo: 100%") and "3/3" in final  # not erased (tqdm leave=True)
+
+
+def test_a_message_between_updates_is_a_line_of_its_own():
+    log = io.StringIO()
+    with Progress(2, "SPH", file=log) as bar:
+        bar.write("  random 03: timeout: no result after 60 s")
+        bar.update(2)
+    assert log.getvalue().splitlines()[0] == "  random 03: timeout: no result after 60 s"
+    screen = Terminal()
+    with Progress(2, "SPH", file=screen) as bar:
+        bar.write("  a failure")
+        bar.update(2)
+    assert "  a failure\n" in screen.getvalue()
+
+
+def test_the_sph_stage_writes_plain_lines_into_a_log(monkeypatch, tmp_path, capsys):
+    """The SPH study's progress (``replication sph``, reproduce's SPH stage) follows the rule."""
+    import replication.cli.sph as cli_sph
+    import replication.experiments.sph as experiment
+    import replication.report.sph as report
+
+    def fake_study(config, *, command, quick, on_run):
+        for k in range(len(config.runs())):
+            on_run(f"run {k}")
+        return "results"
+
+    monkeypatch.setattr(experiment, "run_sph_study", fake_study)
+    monkeypatch.setattr(report, "save_sph_data", lambda results, out: None)
+    monkeypatch.setattr(report, "render_sph", lambda out: out / "sph.md")
+    cli_sph.run_sph_report(tmp_path, quick=True, command="replication sph --quick")
+    err = capsys.readouterr().err
+    assert "\r" not in err and err.splitlines()[-1].startswith("SPH simulations: ")
+    assert " done (" in err.splitlines()[-1]

@@ -7,6 +7,8 @@ into an :class:`~replication.errors.InputError` naming the offending vertex or t
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 
 from replication.casestudy import _sheet
@@ -14,7 +16,7 @@ from replication.casestudy.jetconfig import JetConfig
 from replication.casestudy.units import to_millimetres
 from replication.errors import InputError
 
-__all__ = ["check_domain", "check_height_field", "weld"]
+__all__ = ["check_domain", "check_height_field", "surface_signature", "weld"]
 
 
 def check_domain(points: np.ndarray, config: JetConfig, used: np.ndarray | None = None) -> None:
@@ -101,3 +103,16 @@ def check_height_field(points: np.ndarray, triangles: np.ndarray) -> tuple[np.nd
     area = 0.5 * np.sum((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
     hull = ConvexHull(points[np.unique(triangles), :2]).volume
     return triangles, bool(area >= hull * (1 - 1e-9))
+
+
+def surface_signature(points: np.ndarray, triangles: np.ndarray) -> str:
+    """SHA-256 of a surface's geometry, independent of vertex and triangle order.
+
+    Two genomes whose points differ only in order, or in merged duplicates, give the same
+    signature: they are the same surface.
+    """
+    p = np.asarray(points, dtype=np.float64)
+    corners = p[np.asarray(triangles)]  # (m, 3, 3)
+    rows = [sorted(map(tuple, tri)) for tri in corners.tolist()]
+    rows.sort()
+    return hashlib.sha256(np.asarray(rows, dtype="<f8").tobytes()).hexdigest()

@@ -21,6 +21,17 @@ import time
 from pathlib import Path
 from typing import Any
 
+from replication.cli.casestudy_sph import (
+    add_rescore_options,
+    check_fitness_record,
+    report_rescored,
+    rescore_config,
+    rescore_hint,
+    rescore_summary,
+    solver_record,
+    sph_fitness,
+    write_fitness_record,
+)
 from replication.cli.common import emit_json, positive_int, seed
 from replication.cli.outputs import (
     DEFAULT_DIR,
@@ -39,6 +50,7 @@ examples:
   replication casestudy --executor dask --workers 4          a local dask cluster
   replication casestudy --scheduler tcp://host:8786          an existing dask cluster
   replication casestudy --run-dir casestudy-runs/run-X --resume   continue an interrupted run
+  replication casestudy --rescore sph --top 5 --particle-radius 1   the GA's winners judged by SPH
 
 Every generation is checkpointed (JSON) in the run directory, printed at the start; after a
 crash or Ctrl-C (exit status 130), --resume with the same --run-dir continues where the run
@@ -48,6 +60,11 @@ uninterrupted run would. Settings given together with --resume must match the re
 The report goes to {DEFAULT_DIR}/ only for the paper's settings ({QUICK_DIR}/ with --quick); a run
 with other settings reports into its run directory (RUN_DIR/report/), unless --output-dir names
 a directory.
+
+--rescore sph simulates the best distinct surfaces of each run, the flat plate and the bucket
+by SPH (the fitness of record: the thin-sheet model ranks cup-like surfaces unlike SPH) on the
+same executor, and the report ranks them by SPH with a cost table. Every simulation is cached by
+content (--cache-dir): after Ctrl-C, the resume command reuses every finished simulation.
 """
 
 SETTINGS = ("runs", "generations", "population", "seed")
@@ -66,6 +83,9 @@ class Plan:
     created: tuple[Path, ...]  # directories the command will create for the run (removed on failure)
     quick: bool = False  # the --quick settings (also when resumed without --quick)
     done_generations: int = 0
+    rescore: Any = None  # RescoreConfig of --rescore sph (issue 11)
+    solver: Any = None  # the GA's fitness when it is SPH (fitness.json), else None
+    sph: Any = None  # RescoreConfig of the SPH settings (either use)
 
 
 def _requested_config(args: argparse.Namespace) -> Any:
@@ -138,6 +158,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     from replication.io.paths import check_writable_dir
 
     check_executor_options(args.executor, args.workers, args.scheduler)
+    rescore = rescore_config(args, _requested_config(args))
     if args.resume:
         if not args.run_dir:
             raise InputError("--resume continues the runs in --run-dir DIR: name the directory to resume")
@@ -160,12 +181,20 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
                     "directory"
                 )
     check_writable_dir(run_dir, "--run-dir" if args.run_dir else "the GA run directory")
+    solver = solver_record(args, rescore)
+    check_fitness_record(run_dir, solver, args.resume)
     done = 0
     if run_dir.is_dir():  # validate every checkpoint now, not after minutes of computing
         for k in range(config.runs):
             state = load_run(run_dir, k, config)
             done += 0 if state is None else state.generation
     default_out, note = _default_report_dir(config, run_dir)
+    if solver is not None and not note:  # the committed reports are the thin-sheet GA's
+        default_out = run_dir / "report"
+        note = (
+            f"--solver sph: the report goes to {default_out}/, not {DEFAULT_DIR}/ (name a directory with "
+            "--output-dir)"
+        )
     out = Path(args.output_dir) if args.output_dir else default_out
     check_writable_dir(out, "--output-dir" if args.output_dir else "the reports directory")
     from replication.experiments.casestudy import quick_ga_config
@@ -173,10 +202,12 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     hint = ["replication", "casestudy", "--run-dir", str(run_dir), "--resume"]
     if out.resolve() != default_out.resolve():
         hint += ["--output-dir", str(out)]
+    hint += rescore_hint(args)
     return Plan(
         config=config, run_dir=run_dir, resume=args.resume, out=out, hint=shlex.join(hint),
         note="" if args.output_dir else note, created=missing_dirs(run_dir),
         quick=config == quick_ga_config(), done_generations=done,
+        rescore=rescore if getattr(args, "rescore", None) else None, solver=solver, sph=rescore,
     )  # fmt: skip
 
 
@@ -190,7 +221,9 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
     action = "resuming" if plan.resume else "after an interruption, resume with"
     print(f"GA run directory: {plan.run_dir} ({action}: {plan.hint})", file=sys.stderr)
     pool = functools.partial(executor, args.executor, workers=args.workers, scheduler=args.scheduler)
+    fitness = sph_fitness(plan, args, workers=_workers(args))
     try:
+        write_fitness_record(plan.run_dir, plan.solver)
         with Progress(
             config.runs * config.generations, "GA generations", initial=plan.done_generations
         ) as bar:
@@ -201,6 +234,7 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
             results = run_casestudy(
                 config, run_dir=plan.run_dir, pool_factory=pool, resume=plan.resume, on_generation=tick,
                 command=args.invocation, quick=plan.quick, timing_repeats=20 if plan.quick else 100,
+                rescore=plan.rescore, on_rescored=report_rescored, fitness=fitness, solver=plan.solver,
             )  # fmt: skip
     except KeyboardInterrupt:
         from replication.casestudy.rundir import CONFIG_NAME
@@ -216,6 +250,15 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
         raise
     save_casestudy_data(results, plan.out)
     return results, render_casestudy(plan.out)
+
+
+def _workers(args: argparse.Namespace) -> int:
+    """Evaluations at once, for the cost estimate: the local workers (a named cluster: 1, unknown)."""
+    import os
+
+    if args.executor == "serial" or (args.scheduler and not args.workers):
+        return 1
+    return args.workers or os.cpu_count() or 1
 
 
 def _cmd_casestudy(args: argparse.Namespace) -> int:
@@ -237,11 +280,14 @@ def _cmd_casestudy(args: argparse.Namespace) -> int:
             "failures": int(results.runs["failures"].sum()),
             "reference_shapes_N": dict(zip(results.shapes["shape"], results.shapes["axial_N"])),
             "run_dir": str(plan.run_dir), "report": str(path), "seconds": time.perf_counter() - start,
+            **({} if results.rescore is None else {"rescore": results.rescore.to_dict("records")}),
         })  # fmt: skip
         return 0
     for _, r in results.runs.iterrows():
         print(f"run {r['run']}: best force {r['best_N']:.4f} N after {r['evaluations']} evaluations "
               f"({r['cache_hits']} saved by the cache, {r['failures']} failed)")  # fmt: skip
+    for line in rescore_summary(results):
+        print(line)
     print(f"wrote {path} ({time.perf_counter() - start:.1f} s; GA checkpoints in {plan.run_dir})")
     return 0
 
@@ -290,4 +336,5 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--quick, else RUN_DIR/report/)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object with the results")
+    add_rescore_options(p)
     p.set_defaults(func=_cmd_casestudy)

@@ -63,6 +63,13 @@ class Progress:
         if self.done >= self.total:  # finished: say so now, with the time the work took
             self.close()
 
+    def write(self, message: str) -> None:
+        """A line of its own on the display's stream, without breaking a live bar."""
+        if self._bar is not None:
+            self._bar.write(message, file=self.file)
+        else:
+            print(message, file=self.file, flush=True)
+
     def close(self) -> None:
         """Finish the display: the bar stays, or a last line says what was completed."""
         if self._closed:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -91,24 +90,18 @@ def force_sph(
     args: argparse.Namespace, config: Any, points: Any, triangles: Any, what: str, merged: int
 ) -> int:
     """``replication force --solver sph``: simulate, print the result (or one JSON object)."""
-    from tqdm import tqdm
-
     from replication.casestudy.sph import DEFAULT_TIMEOUT, require_engine, sph_force
+    from replication.cli.progress import progress as show_progress
 
     require_engine()
     settings = _settings(args)
-    total_ms = 1e3 * settings.duration
-    with tqdm(
-        total=round(total_ms, 3),
-        desc="SPH simulated time",
-        unit="ms",
-        file=sys.stderr,
-        leave=False,
-        bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} ms [{elapsed}<{remaining}]",
-    ) as bar:
+    total_ms = round(1e3 * settings.duration)
+    with show_progress(total_ms, "SPH simulated time (ms)") as bar:
 
         def progress(t: float) -> None:
-            bar.update(min(1e3 * t, total_ms) - bar.n)
+            reached = min(int(1e3 * t), total_ms)
+            if reached > bar.done:
+                bar.update(reached - bar.done)
 
         result = sph_force(
             points,
@@ -201,17 +194,15 @@ def _cmd_sph(args: argparse.Namespace) -> int:
 
 def run_sph_report(out: Path, quick: bool, command: str) -> Path:
     """Run the SPH study (quick or full) into ``out`` and render ``sph.md``."""
-    from tqdm import tqdm
-
+    from replication.cli.progress import progress
     from replication.experiments.sph import SPHStudyConfig, run_sph_study
     from replication.report.sph import render_sph, save_sph_data
 
     config = SPHStudyConfig.quick() if quick else SPHStudyConfig()
-    with tqdm(total=len(config.runs()), desc="SPH simulations", file=sys.stderr, leave=False) as bar:
+    with progress(len(config.runs()), "SPH simulations") as bar:
 
         def tick(label: str) -> None:
-            bar.set_postfix_str(label)
-            bar.update(1)
+            bar.update(1, last=label)
 
         results = run_sph_study(config, command=command, quick=quick, on_run=tick)
     save_sph_data(results, out)

@@ -29,11 +29,10 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
 
     The index (and a checkout's README headline) is the caller's to refresh.
     """
-    from tqdm import tqdm
-
     from replication.casestudy.evaluate import executor
     from replication.casestudy.sph import require_engine
     from replication.casestudy.sph_batch import default_cache_dir
+    from replication.cli.progress import Progress
     from replication.errors import SimulationError
     from replication.experiments.jet_validation import run_validation
     from replication.report.jet_validation import render_jet_validation, save_jet_validation_data
@@ -48,14 +47,17 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
         nonlocal bar
         if bar is not None:
             bar.close()
-        bar = tqdm(total=n, desc=label, file=sys.stderr, leave=False, dynamic_ncols=True)
+        bar = Progress(n, label)
 
     def done(scored: Any) -> None:
-        if bar is not None:
-            bar.set_postfix_str(f"{scored.name}: {scored.status}{' (cached)' if scored.cached else ''}")
-            bar.update(1)
+        line = f"  {scored.name}: {scored.status}: {scored.reason}"
         if scored.status not in ("ok", "missing"):
-            tqdm.write(f"  {scored.name}: {scored.status}: {scored.reason}", file=sys.stderr)
+            if bar is not None:
+                bar.write(line)
+            else:
+                print(line, file=sys.stderr)
+        if bar is not None:
+            bar.update(1, last=f"{scored.name} {scored.status}{' (cached)' if scored.cached else ''}")
 
     ga_pool = functools.partial(executor, "serial")
     try:

@@ -8,6 +8,7 @@ numbers beside ours. Everything is returned as DataFrames; nothing here writes a
 
 from __future__ import annotations
 
+import os
 import time
 import warnings
 from collections.abc import Callable
@@ -18,10 +19,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from replication.casestudy.dispatch import Dispatcher
+from replication.casestudy.dispatch import Dispatcher, worker_count
 from replication.casestudy.evaluate import Fitness
 from replication.casestudy.ga import GAConfig, points_from_genome, random_genome
 from replication.casestudy.jet import surface_force
+from replication.casestudy.rescore import RescoreConfig, rescore_runs
 from replication.casestudy.runner import ExecutorFactory, GARun, run_ga
 from replication.casestudy.shapes import (
     flat_plate_cloud,
@@ -30,6 +32,7 @@ from replication.casestudy.shapes import (
     pelton_bucket_surface,
 )
 from replication.errors import DuplicatePointsWarning
+from replication.experiments.casestudy_rescore import rescore_cost
 from replication.experiments.paper import PAPER_CASESTUDY
 from replication.experiments.timing import interleaved, summarize
 from replication.io.vtk import legacy_vtk_text
@@ -93,6 +96,8 @@ class CaseStudyResults:
     claims: pd.DataFrame  # the paper's numbers beside ours
     best: dict[int, np.ndarray] = field(default_factory=dict)  # run -> best individual's points (mm)
     provenance: dict[str, Any] = field(default_factory=dict)
+    rescore: pd.DataFrame | None = None  # the best distinct surfaces re-scored by SPH (issue 11)
+    rescore_cost: pd.DataFrame | None = None  # thin-sheet vs SPH cost, the paper's GA projected
 
 
 def _shapes(config: GAConfig) -> pd.DataFrame:
@@ -189,6 +194,11 @@ def run_casestudy(
     timing_repeats: int = 100,
     command: str | None = None,
     quick: bool = False,
+    rescore: RescoreConfig | None = None,
+    on_rescored: Callable[[Any], None] | None = None,
+    simulate: Callable[..., Any] | None = None,
+    fitness: Callable[[np.ndarray], float] | None = None,
+    solver: dict[str, Any] | None = None,
 ) -> CaseStudyResults:
     """Run the case study: ``config.runs`` GA runs, reference shapes, cost of an evaluation.
 
@@ -210,6 +220,18 @@ def run_casestudy(
         The invocation recorded in the provenance.
     quick : bool
         Whether this is a reduced smoke-test run (stated in the report).
+    rescore : RescoreConfig, optional
+        Re-score the best distinct surfaces of each run, and the reference shapes, by SPH on
+        the same executor (:mod:`replication.casestudy.rescore`).
+    on_rescored : callable, optional
+        Called with each re-scored surface as it becomes known (progress display).
+    simulate : callable, optional
+        Replaces the SPH simulation (tests; see :func:`.sph_batch.score_surfaces`).
+    fitness : callable, optional
+        The GA's fitness (default: the thin-sheet model's; ``--solver sph``:
+        :class:`~replication.casestudy.sph_fitness.SPHFitness`).
+    solver : dict, optional
+        What ``fitness`` is, recorded in the provenance (and stated by the report).
 
     Notes
     -----
@@ -221,8 +243,15 @@ def run_casestudy(
         for k in range(config.runs):
             t0 = time.perf_counter()
             state = run_ga(config, k, run_dir=run_dir, dispatcher=dispatcher, resume=resume,
-                           on_generation=on_generation)  # fmt: skip
+                           on_generation=on_generation, fitness=fitness)  # fmt: skip
             states.append((state, time.perf_counter() - t0))
+        rescored = None
+        if rescore is not None:  # the GA's winners judged by SPH, on the same executor
+            pool = dispatcher.executor()
+            rescored = rescore_runs(
+                [s for s, _ in states], config, rescore, executor=pool, workers=worker_count(pool),
+                on_result=on_rescored, simulate=simulate,
+            )  # fmt: skip
     for state, wall in states:
         k = state.run
         history = state.history_frame()
@@ -238,6 +267,16 @@ def run_casestudy(
     runs_frame = pd.DataFrame(runs)
     shapes = _shapes(config)
     evaluation = _evaluation_cost(config, timing_repeats)
+    extra: dict[str, Any] = {} if solver is None else {"solver": solver}
+    cost = None
+    if rescored is not None:
+        extra["rescore"] = {"top": rescore.top, "settings": rescore.settings.as_dict(),
+                            "seconds": rescored.wall_seconds, "workers": rescored.workers}  # fmt: skip
+        cost = rescore_cost(
+            rescored.surfaces, wall_seconds=rescored.wall_seconds,
+            thin_sheet_seconds=float(evaluation["median"].median()), runs=runs_frame, config=config,
+            cores=os.cpu_count() or 1, workers=rescored.workers,
+        )  # fmt: skip
     record = provenance(
         command,
         experiment="casestudy",
@@ -246,6 +285,7 @@ def run_casestudy(
         seeds=f"run k: numpy default_rng([{config.seed}, k]), k = 0..{config.runs - 1}",
         run_seconds=time.perf_counter() - started,
         ga_seconds=float(runs_frame["wall_s"].sum()),
+        **extra,
     )
     return CaseStudyResults(
         config=config,
@@ -256,4 +296,6 @@ def run_casestudy(
         claims=_claims(shapes, runs_frame, evaluation, config),
         best=best,
         provenance=record,
+        rescore=None if rescored is None else rescored.surfaces,
+        rescore_cost=cost,
     )

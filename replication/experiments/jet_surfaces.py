@@ -17,7 +17,6 @@ Families (and the strata of the calibration / held-out split):
 
 from __future__ import annotations
 
-import hashlib
 import math
 import warnings
 from dataclasses import dataclass
@@ -27,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from replication.casestudy.ga import GAConfig, points_from_genome, random_genome
+from replication.casestudy.mesh import surface_signature
 from replication.casestudy.shapes import flat_plate_cloud, pelton_bucket_cloud
 from replication.errors import DuplicatePointsWarning, InputError
 from replication.surfaces import adt
@@ -75,19 +75,6 @@ def _adt(points: np.ndarray, duplicates: str = "mean") -> Any:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DuplicatePointsWarning)
         return adt(points, depth="z", duplicates=duplicates)  # type: ignore[arg-type]
-
-
-def surface_signature(points: np.ndarray, triangles: np.ndarray) -> str:
-    """SHA-256 of a surface's geometry, independent of vertex and triangle order.
-
-    Two genomes whose points differ only in order, or in merged duplicates, give the same
-    signature: they are the same surface.
-    """
-    p = np.asarray(points, dtype=np.float64)
-    corners = p[np.asarray(triangles)]  # (m, 3, 3)
-    rows = [sorted(map(tuple, tri)) for tri in corners.tolist()]
-    rows.sort()
-    return hashlib.sha256(np.asarray(rows, dtype="<f8").tobytes()).hexdigest()
 
 
 def inclined_plate_cloud(angle_deg: float) -> np.ndarray:
@@ -174,6 +161,7 @@ def ga_winners(
     -----
     Paper section 6: the GA's optimised surfaces (Fig. 9).
     """
+    from replication.casestudy.rescore import top_distinct
     from replication.casestudy.runner import load_run, run_ga
 
     out = []
@@ -188,25 +176,8 @@ def ga_winners(
                 resume=True,
                 on_generation=on_generation,
             )
-        order = np.argsort(-state.fitness, kind="stable")
-        seen: set[str] = set()
-        for i in order:
-            s = _adt(points_from_genome(state.population[i], config), config.duplicates)
-            signature = surface_signature(s.points, s.triangles)
-            if signature in seen:
-                continue
-            seen.add(signature)
-            rank = len(seen)
+        for c in top_distinct(state, config, top):
             out.append(
-                StudySurface(
-                    f"GA run {k} #{rank}",
-                    "GA winner",
-                    f"GA run {k}",
-                    s.points,
-                    s.triangles,
-                    ga_fitness=float(state.fitness[i]),
-                )  # fmt: skip
+                StudySurface(c.name, "GA winner", f"GA run {k}", c.points, c.triangles, ga_fitness=c.fitness)
             )
-            if rank == top:
-                break
     return out

@@ -20,6 +20,7 @@ from matplotlib.patches import Wedge
 from replication.errors import DuplicatePointsWarning
 from replication.experiments.casestudy import differences_from_paper
 from replication.io.atomic import atomic_write_text
+from replication.report.casestudy_rescore import rescore_section, save_rescore_data  # issue 11
 from replication.report.casestudy_validation import fitness_note, validation_section  # issue 11
 from replication.report.figures import clear_figures, save_figure
 from replication.report.markdown import fmt, iqr, provenance_section, table
@@ -57,6 +58,7 @@ def save_casestudy_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
     )
     write_csv(best, data / "casestudy_best.csv")
     write_json(results.provenance, data / "casestudy_provenance.json")
+    save_rescore_data(results, data)  # issue 11: the best surfaces by SPH, when re-scored
     return data
 
 
@@ -198,6 +200,19 @@ def render_casestudy(out_dir: str | os.PathLike[str]) -> Path:
         if differ
         else ""
     )
+    solver = prov.get("solver")  # --solver sph (issue 11): the GA's fitness was SPH
+    if solver:
+        sph = solver.get("settings", {})
+        method = str(sph.get("method", "?")).upper()
+        radius = 1e3 * float(sph.get("particle_radius", "nan"))
+        duration = 1e3 * float(sph.get("duration", "nan"))
+        quick += (
+            "\n> **Fitness: SPH.** Every individual of the GA was scored by an SPH simulation "
+            f"(SPlisHSPlasH, {method}, particle radius {radius:g} mm, {duration:g} ms simulated; a failed "
+            "simulation scores worst): the history, the runs and the best surfaces are SPH forces. The "
+            "reference shapes, the cost of an evaluation and the model described below are the thin-sheet "
+            "model's.\n"
+        )
     settings = "the paper's" if not differ else "the paper's except as stated at the top"
     this_run = (
         "replication casestudy               # the paper's settings (this report)"
@@ -315,7 +330,7 @@ and the size of the individual's surface as compact legacy VTK:
   of evaluations is below population x generations.
 
 {validation_section(out)}
-## Reproduce
+{rescore_section(out)}## Reproduce
 
 ```bash
 {this_run}

@@ -1,0 +1,245 @@
+"""The SPH options of ``replication casestudy``: ``--rescore sph --top K``, ``--solver sph``.
+
+A run scored by SPH records its solver and settings in ``RUN_DIR/fitness.json``; a run
+directory without one holds a thin-sheet run. Resuming with another fitness is refused, so
+one run never mixes two fitnesses.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from replication.cli.common import positive_int
+
+#: The SPH options (dest names); they need --rescore sph or --solver sph.
+SPH_OPTIONS = ("top", "particle_radius", "duration", "sph_timeout", "cache_dir")
+#: The record of a run's fitness in its run directory (absent: the thin-sheet model).
+FITNESS_NAME = "fitness.json"
+#: An estimate above this many hours is refused without --yes.
+CONFIRM_HOURS = 1.0
+
+
+def add_rescore_options(p: argparse.ArgumentParser) -> None:
+    """``--rescore`` and the SPH options of ``replication casestudy``."""
+    from replication.cli.sph import positive_float
+
+    g = p.add_argument_group('SPH, the fitness of record (needs pip install ".[sph]")')
+    g.add_argument(
+        "--solver",
+        choices=("sheet", "sph"),
+        help="the GA's fitness: sheet, the thin-sheet model (default, milliseconds), or sph, an SPH "
+        "simulation of every individual (seconds to minutes each; the cost is estimated first)",
+    )
+    g.add_argument(
+        "--yes",
+        action="store_true",
+        help=f"--solver sph: start even when the estimate exceeds {CONFIRM_HOURS:g} h",
+    )
+    g.add_argument(
+        "--rescore",
+        choices=("sph",),
+        help="after the thin-sheet GA, re-score the best distinct surfaces of each run, the flat plate "
+        "and the bucket by SPH (SPlisHSPlasH), and rank them by SPH in the report",
+    )
+    g.add_argument("--top", type=positive_int, metavar="K", help="distinct surfaces per run (default 5)")
+    g.add_argument(
+        "--particle-radius", type=positive_float, metavar="R", help="SPH particle radius in mm (default 0.75)"
+    )
+    g.add_argument(
+        "--duration", type=positive_float, metavar="T", help="SPH simulated time in ms (default 20)"
+    )
+    g.add_argument(
+        "--sph-timeout", type=positive_float, metavar="S", help="wall-clock limit of one simulation (s, 1800)"
+    )
+    g.add_argument(
+        "--cache-dir",
+        metavar="DIR",
+        help="the SPH cache (default $REPLICATION_SPH_CACHE or .sph-cache/): a rerun reuses every "
+        "finished simulation",
+    )
+
+
+def rescore_config(args: argparse.Namespace, config: Any) -> Any:
+    """The :class:`RescoreConfig` of the options, checked before any work; None without SPH.
+
+    With ``--solver sph`` alone it carries the settings of the fitness (``top`` unused).
+
+    Raises
+    ------
+    InputError
+        An SPH option without ``--rescore sph`` or ``--solver sph`` (``--top`` without
+        ``--rescore``), settings the SPH backend refuses.
+    SolverUnavailableError
+        The engine is not installed (the message names ``pip install ".[sph]"``).
+    """
+    from replication.errors import InputError
+
+    solver = getattr(args, "solver", None) == "sph"
+    if solver and getattr(args, "rescore", None) is not None:
+        raise InputError(
+            "--rescore sph re-scores the thin-sheet GA's winners; with --solver sph every individual is "
+            "already scored by SPH: give one of them"
+        )
+    if getattr(args, "yes", False) and not solver:
+        raise InputError("--yes applies only with --solver sph")
+    if getattr(args, "rescore", None) is None:
+        given = [name for name in SPH_OPTIONS if getattr(args, name, None) is not None]
+        if given and (given[0] == "top" or not solver):
+            need = "--rescore sph" if given[0] == "top" else "--rescore sph or --solver sph"
+            raise InputError(f"--{given[0].replace('_', '-')} applies only with {need}")
+        if not solver:
+            return None
+    from pathlib import Path
+
+    from replication.casestudy import sph
+    from replication.casestudy.rescore import RescoreConfig
+    from replication.casestudy.sph.settings import SPHSettings, timeline
+    from replication.casestudy.sph_batch import default_cache_dir
+
+    sph.require_engine()
+    changes: dict[str, Any] = {}
+    if args.particle_radius is not None:
+        changes["particle_radius"] = args.particle_radius / 1000.0  # mm -> m
+    if args.duration is not None:
+        changes["duration"] = args.duration / 1000.0  # ms -> s
+    settings = SPHSettings(**changes)
+    timeline(settings, config.jet.velocity, config.jet.diameter)  # a duration with no window: refuse now
+    cache = Path(args.cache_dir) if args.cache_dir else default_cache_dir()
+    return RescoreConfig(
+        top=5 if args.top is None else args.top,
+        settings=settings,
+        timeout=args.sph_timeout,
+        cache_dir=str(cache.resolve()),
+    )
+
+
+def rescore_hint(args: argparse.Namespace) -> list[str]:
+    """The SPH options to repeat in the resume hint."""
+    words = []
+    if getattr(args, "solver", None) is not None:
+        words += ["--solver", args.solver] + (["--yes"] if args.yes else [])
+    if getattr(args, "rescore", None) is not None:
+        words += ["--rescore", args.rescore]
+    if not words:
+        return []
+    for name in SPH_OPTIONS:
+        value = getattr(args, name, None)
+        if value is not None:
+            words += [f"--{name.replace('_', '-')}", f"{value:g}" if isinstance(value, float) else str(value)]
+    return words
+
+
+def report_rescored(scored: Any) -> None:
+    """One line on stderr per re-scored surface (progress)."""
+    if scored.ok:
+        what = f"{scored.result.mean_axial:.4g} N"
+    else:
+        what = f"{scored.status}: {scored.reason}"
+    if scored.cached:
+        source = "cache"
+    else:
+        source = f"simulated in {scored.result.wall_seconds:.1f} s" if scored.result is not None else ""
+    print(f"SPH {scored.name}: {what}" + (f" ({source})" if source else ""), file=sys.stderr)
+
+
+def rescore_summary(results: Any) -> list[str]:
+    """Lines for stdout: the best surface by SPH and the bucket beside it."""
+    frame = results.rescore
+    if frame is None:
+        return []
+    ok = frame[frame["status"] == "ok"].sort_values("sph_N", ascending=False, kind="stable")
+    failed = int((frame["status"] != "ok").sum())
+    cached = int(frame["cached"].sum())
+    lines = [f"SPH re-scoring: {len(frame)} surfaces ({cached} from the cache, {failed} failed)"]
+    if len(ok):
+        best = ok.iloc[0]
+        lines.append(
+            f"best by SPH: {best['surface']} {best['sph_N']:.4g} N (thin-sheet {best['thin_sheet_N']:.4g} N)"
+        )
+        bucket = ok[ok["surface"] == "pelton bucket"]
+        if len(bucket):
+            lines.append(f"pelton bucket by SPH: {bucket.iloc[0]['sph_N']:.4g} N")
+    return lines
+
+
+def solver_record(args: argparse.Namespace, rescore: Any) -> dict[str, Any] | None:
+    """What the GA's fitness is (for ``fitness.json`` and the provenance); None: the thin-sheet model."""
+    if getattr(args, "solver", None) != "sph":
+        return None
+    return {"solver": "sph", "settings": rescore.settings.as_dict()}
+
+
+def check_fitness_record(run_dir: Any, record: dict[str, Any] | None, resume: bool) -> None:
+    """Refuse a run directory whose recorded fitness differs from the requested one."""
+    import json
+    from pathlib import Path
+
+    from replication.errors import InputError
+
+    path = Path(run_dir) / FITNESS_NAME
+    recorded = json.loads(path.read_text()) if path.is_file() else None
+    has_run = (Path(run_dir) / "config.json").is_file()
+    if not has_run and not resume:
+        return
+    if recorded != record:
+
+        def name(r: Any) -> str:
+            if r is None:
+                return "the thin-sheet model"
+            changed = {k: v for k, v in r.get("settings", {}).items() if v != defaults.get(k)}
+            return "SPH (" + (", ".join(f"{k} {v}" for k, v in sorted(changed.items())) or "defaults") + ")"
+
+        from replication.casestudy.sph.settings import SPHSettings
+
+        defaults = SPHSettings().as_dict()
+
+        raise InputError(
+            f"{run_dir} holds a run scored by {name(recorded)}, not {name(record)}: resume it with its "
+            "own --solver and SPH options, or start a new run directory"
+        )
+
+
+def write_fitness_record(run_dir: Any, record: dict[str, Any] | None) -> None:
+    import json
+    from pathlib import Path
+
+    from replication.io.atomic import atomic_write_text
+
+    if record is not None:
+        Path(run_dir).mkdir(parents=True, exist_ok=True)
+        atomic_write_text(Path(run_dir) / FITNESS_NAME, json.dumps(record, sort_keys=True) + "\n")
+
+
+def sph_fitness(plan: Any, args: argparse.Namespace, workers: int) -> Any:
+    """The SPH fitness of ``--solver sph`` after its cost estimate (stderr); None for the thin sheet.
+
+    Raises
+    ------
+    InputError
+        An estimate above ``CONFIRM_HOURS`` without ``--yes``.
+    """
+    if plan.solver is None:
+        return None
+    from replication.casestudy.sph_fitness import SPHFitness, estimate
+    from replication.errors import InputError
+
+    r = plan.sph
+    fitness = SPHFitness(plan.config, r.settings, r.cache_dir, r.timeout)
+    print(
+        "--solver sph: measuring one SPH simulation (the flat plate) for the cost estimate", file=sys.stderr
+    )
+    e = estimate(fitness, workers=workers)
+    print(
+        f"--solver sph: {e.seconds_per_simulation:.3g} s per simulation"
+        f"{' (from the cache)' if e.cached else ''} x at most {e.evaluations} evaluations / {e.workers} "
+        f"worker(s) = at most {e.hours:.3g} h (the genome cache saves repeats)",
+        file=sys.stderr,
+    )
+    if e.hours > CONFIRM_HOURS and not args.yes:
+        raise InputError(
+            f"the estimated cost, {e.hours:.3g} h, exceeds {CONFIRM_HOURS:g} h: pass --yes to start, or "
+            "coarsen with --particle-radius, --duration or fewer --runs/--generations/--population"
+        )
+    return fitness

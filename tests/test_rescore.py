@@ -1,0 +1,309 @@
+"""The thin-sheet GA's best surfaces re-scored by SPH (``casestudy --rescore sph``, issue 11 item 3).
+
+Most tests replace the engine by ``fake_sph`` (force 1 + mean height, blow-up for a surface
+wholly at 13 mm), so that selection, cache, resume, failures and the report are checked in
+milliseconds; one test runs the real engine at coarse particles.
+"""
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from sph_fake import CALLS, fake_sph
+
+import replication.casestudy.sph as sph_package
+from replication.casestudy import rescore as rescore_module
+from replication.casestudy.checkpoints import WORST, GARun
+from replication.casestudy.ga import GAConfig, genome_from_points, points_from_genome, random_genome
+from replication.casestudy.rescore import RescoreConfig, rescore_runs, top_distinct
+from replication.casestudy.shapes import flat_plate_cloud, pelton_bucket_cloud, pelton_bucket_surface
+from replication.casestudy.sph import SPHSettings, engine_available
+from replication.casestudy.sph import score as sph_score
+from replication.cli import main
+from replication.errors import InputError
+from replication.experiments.casestudy_rescore import PAPER_EVALUATIONS, rescore_cost
+from replication.report.casestudy_rescore import RESCORE_FILES, rescore_section, save_rescore_data
+from replication.report.store import write_json
+
+CONFIG = GAConfig(population=6, generations=2, runs=2)
+SETTINGS = SPHSettings(particle_radius=1e-3, duration=0.016)
+
+
+@pytest.fixture(autouse=True)
+def _reset():
+    CALLS.clear()
+
+
+def genome(cloud):
+    return genome_from_points(cloud, CONFIG)
+
+
+def state(run, clouds, fitness):
+    population = np.stack([genome(c) for c in clouds])
+    return GARun(run, CONFIG.generations, population, np.asarray(fitness, dtype=float), {})
+
+
+def plates_run(run=0):
+    """Plates at 3, 3 (a repeated elite), 2, 1, and a failed evaluation."""
+    p3 = flat_plate_cloud(3)
+    clouds = [flat_plate_cloud(1), p3, flat_plate_cloud(2), p3, flat_plate_cloud(5)]
+    return state(run, clouds, [1.0, 3.0, 2.0, 3.0, WORST])
+
+
+def test_the_top_k_are_the_best_distinct_surfaces_repeats_and_failures_left_out():
+    spiky = points_from_genome(random_genome(CONFIG, rng=np.random.default_rng(7)), CONFIG)
+    # a random surface, twice (a repeated elite) and with its points listed backwards (the same
+    # surface: the ADT of points in general position does not depend on their order)
+    clouds = [flat_plate_cloud(1), spiky, flat_plate_cloud(2), spiky, spiky[::-1], flat_plate_cloud(5)]
+    run = state(0, clouds, [1.0, 3.0, 2.0, 3.0, 3.0, WORST])
+    top = top_distinct(run, CONFIG, 3)
+    assert [(c.rank, c.index, c.fitness) for c in top] == [(1, 1, 3.0), (2, 2, 2.0), (3, 0, 1.0)]
+    assert [c.name for c in top] == ["GA run 0 #1", "GA run 0 #2", "GA run 0 #3"]
+    assert [float(c.points[:, 2].mean()) for c in top[1:]] == [2.0, 1.0]
+    # fewer distinct surfaces than asked: all of them, the failed evaluation never
+    assert [c.index for c in top_distinct(run, CONFIG, 10)] == [1, 2, 0]
+    assert [c.index for c in top_distinct(run, CONFIG, 1)] == [1]
+
+
+@pytest.mark.parametrize("top", [0, -1, 1.5, True])
+def test_top_must_be_a_positive_integer(top):
+    with pytest.raises(InputError, match="top must be a positive integer"):
+        RescoreConfig(top=top)
+    with pytest.raises(InputError, match="top must be a positive integer"):
+        top_distinct(plates_run(), CONFIG, top)
+
+
+def rescore(tmp_path, states=None, top=2):
+    states = states or [plates_run(0), state(1, [pelton_bucket_cloud(), flat_plate_cloud(4)], [5.0, 4.0])]
+    config = RescoreConfig(top=top, settings=SETTINGS, cache_dir=tmp_path / "cache")
+    return rescore_runs(states, CONFIG, config, simulate=fake_sph)
+
+
+def test_rescoring_gives_known_forces_and_a_rerun_simulates_nothing(tmp_path):
+    first = rescore(tmp_path)
+    f = first.surfaces
+    assert list(f["surface"]) == [
+        "flat plate", "pelton bucket", "GA run 0 #1", "GA run 0 #2", "GA run 1 #1", "GA run 1 #2",
+    ]  # fmt: skip
+    # fake force: 1 + mean height (N); the bucket of run 1 is the reference itself, simulated once
+    assert f.loc[2:, "sph_N"].tolist()[:2] == [4.0, 3.0] and f.loc[5, "sph_N"] == 5.0
+    assert f.loc[0, "sph_N"] == 1.0 and f.loc[4, "same_as"] == "pelton bucket"
+    assert f["same_as"].tolist().count("") == 5 and f.loc[4, "sph_N"] == f.loc[1, "sph_N"]
+    assert f.loc[2:, "thin_sheet_N"].tolist() == [3.0, 2.0, 5.0, 4.0]
+    assert f["status"].eq("ok").all() and not f["cached"].any()
+    assert len(CALLS) == 5  # six rows, one surface twice
+    assert math.isclose(f.loc[2, "sph_over_rho_q_v"], 4.0 / CONFIG.jet.momentum_flux)
+
+    CALLS.clear()
+    again = rescore(tmp_path)  # resumed: everything from the cache
+    assert CALLS == [] and again.surfaces["cached"].all()
+    columns = [c for c in f.columns if c != "cached"]
+    pd.testing.assert_frame_equal(again.surfaces[columns], f[columns])
+    fresh = rescore(tmp_path / "other")  # deterministic: another cache, the same scores
+    pd.testing.assert_frame_equal(fresh.surfaces, f)
+
+
+def test_an_interrupted_rescoring_resumes_with_what_it_finished(tmp_path):
+    rescore(tmp_path, top=1)  # a first pass that stopped after the best of each run
+    CALLS.clear()
+    full = rescore(tmp_path, top=2)
+    assert sorted(CALLS) == ["2", "4"]  # only the surfaces not simulated before
+    assert full.surfaces["cached"].tolist() == [True, True, True, False, True, False]
+
+
+def test_a_failed_simulation_is_recorded_with_its_reason(tmp_path):
+    blowing = state(0, [flat_plate_cloud(13), flat_plate_cloud(2)], [9.0, 2.0])
+    f = rescore(tmp_path, [blowing]).surfaces
+    row = f.set_index("surface").loc["GA run 0 #1"]
+    assert row["status"] == "blowup" and row["reason"] == "runaway velocities" and math.isnan(row["sph_N"])
+    assert f.set_index("surface").loc["GA run 0 #2", "sph_N"] == 3.0  # the rest carries on
+
+
+def results_with_rescore(tmp_path, states=None):
+    done = rescore(tmp_path, states)
+    runs = pd.DataFrame({"evaluations": [8, 8], "cache_hits": [4, 4]})
+    cost = rescore_cost(
+        done.surfaces, wall_seconds=done.wall_seconds, thin_sheet_seconds=0.004, runs=runs, config=CONFIG,
+        cores=2, workers=1,
+    )  # fmt: skip
+
+    class Results:
+        rescore = done.surfaces
+        rescore_cost = cost
+
+    return Results, cost
+
+
+def test_the_cost_table_projects_the_papers_ga_from_the_measured_simulations(tmp_path):
+    _, cost = results_with_rescore(tmp_path)
+    c = cost.set_index("item")["value"]
+    assert c["thin-sheet evaluation"] == 4.0  # ms
+    assert c["SPH simulation"] > 0 and c["simulations run"] == 5 and c["simulations read from the cache"] == 0
+    assert c["--solver sph evaluations (paper's GA)"] == round(PAPER_EVALUATIONS * 8 / 12)
+    one, two = c["--solver sph, 1 worker"], c["--solver sph, 2 workers"]
+    assert math.isclose(one, 4800 * c["SPH simulation"] / 3600) and math.isclose(two, one / 2)
+    assert math.isclose(c["--solver sph, 64 workers"], one / 64)
+
+
+def test_the_report_section_appears_only_with_rescoring_data(tmp_path):
+    out = tmp_path / "report"
+    data = out / "data"
+    data.mkdir(parents=True)
+    assert rescore_section(out) == ""
+    blowing = [state(0, [flat_plate_cloud(13), pelton_bucket_cloud(), flat_plate_cloud(12)], [9.0, 5.0, 6.0])]
+    results, _ = results_with_rescore(tmp_path, blowing)
+    save_rescore_data(results, data)
+    write_json({"rescore": {"top": 2, "settings": SETTINGS.as_dict()}}, data / "casestudy_provenance.json")
+    text = rescore_section(out)
+    assert text.startswith("## The GA's best surfaces re-scored by SPH") and text.endswith("\n\n")
+    assert "particle radius 1 mm, 16 ms simulated" in text
+    # ranked by SPH: plate at 12 mm (13 N) first; the bucket's own copy is not a GA surface beating it
+    lines = [line for line in text.splitlines() if line.startswith("| ") and "---" not in line][1:]
+    assert lines[0].startswith("| 1 | GA run 0 #2 |")
+    failed = next(line for line in lines if "GA run 0 #1 " in line)
+    assert failed.startswith("| – |") and "| blowup: runaway velocities |" in failed
+    assert "Best by SPH: **GA run 0 #2**, 13 N" in text
+    assert "1 of 1 GA surfaces beat the bucket by SPH" in text
+    assert "--solver sph, 64 workers" in text
+
+    # a run without rescoring into the same directory leaves no stale section behind
+    class Plain:
+        rescore = None
+
+    save_rescore_data(Plain, data)
+    assert not any((data / name).exists() for name in RESCORE_FILES) and rescore_section(out) == ""
+
+
+TINY = ["casestudy", "--runs", "1", "--generations", "2", "--population", "6", "--executor", "serial"]
+
+
+@pytest.fixture
+def fake_engine(monkeypatch):
+    monkeypatch.setattr(sph_package, "require_engine", lambda: "2.19.0")
+    monkeypatch.setattr(sph_package, "sph_force", fake_sph)
+
+
+def test_casestudy_rescore_runs_end_to_end_and_resumes_from_the_cache(
+    tmp_path, monkeypatch, capsys, fake_engine
+):
+    monkeypatch.chdir(tmp_path)
+    args = [*TINY, "--run-dir", "run", "--output-dir", "out", "--rescore", "sph", "--top", "2",
+            "--particle-radius", "1", "--duration", "16", "--cache-dir", "cache", "--json"]  # fmt: skip
+    assert main(args) == 0
+    first = json.loads(capsys.readouterr().out)
+    assert [r["surface"] for r in first["rescore"]][:2] == ["flat plate", "pelton bucket"]
+    assert not any(r["cached"] for r in first["rescore"]) and CALLS
+    report = (tmp_path / "out" / "casestudy.md").read_text()
+    assert "## The GA's best surfaces re-scored by SPH" in report and "Best by SPH" in report
+    assert (tmp_path / "out" / "data" / "casestudy_rescore_cost.csv").is_file()
+    CALLS.clear()
+    assert main([*args, "--resume"]) == 0
+    again = json.loads(capsys.readouterr().out)
+    assert CALLS == [] and all(r["cached"] for r in again["rescore"])
+    assert [r["sph_N"] for r in again["rescore"]] == [r["sph_N"] for r in first["rescore"]]
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--particle-radius", "1"], "--particle-radius applies only with --rescore sph or --solver sph"),
+        (["--solver", "sph", "--top", "3"], "--top applies only with --rescore sph"),
+        (["--solver", "sph", "--rescore", "sph"], "give one of them"),
+        (["--yes"], "--yes applies only with --solver sph"),
+        (["--top", "3"], "--top applies only with --rescore sph"),
+        (["--rescore", "sph", "--duration", "5"], "leaves no quasi-steady window"),
+        (["--rescore", "sph", "--particle-radius", "9"], "particle_radius must lie between 0.1 and 5 mm"),
+    ],
+)
+def test_bad_sph_options_are_refused_before_any_work(
+    tmp_path, monkeypatch, capsys, fake_engine, extra, message
+):
+    monkeypatch.chdir(tmp_path)
+    assert main([*TINY, "--run-dir", "run", *extra]) == 1
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "run").exists()
+
+
+def test_top_below_one_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main([*TINY, "--rescore", "sph", "--top", "0"])
+    assert exc.value.code == 2 and "--top" in capsys.readouterr().err
+
+
+def test_rescore_without_the_engine_names_the_install_command(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sph_score, "ENGINE", "no_such_engine_module")
+    assert main([*TINY, "--run-dir", "run", "--rescore", "sph"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and 'pip install ".[sph]"' in err
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not engine_available(), reason='the SPH engine is not installed (pip install ".[sph]")')
+def test_the_real_engine_rescores_a_run_at_coarse_particles(tmp_path):
+    run = state(0, [flat_plate_cloud(2), flat_plate_cloud(2)], [2.0, 2.0])  # one distinct surface
+    config = RescoreConfig(top=2, settings=SETTINGS, cache_dir=tmp_path / "cache")
+    f = rescore_runs([run], CONFIG, config).surfaces.set_index("surface")
+    assert list(f.index) == ["flat plate", "pelton bucket", "GA run 0 #1"] and f["status"].eq("ok").all()
+    rho_q_v = CONFIG.jet.momentum_flux
+    assert 0.8 < f.loc["flat plate", "sph_N"] / rho_q_v < 1.3  # momentum theory: rho Q V
+    assert f.loc["pelton bucket", "sph_N"] > f.loc["flat plate", "sph_N"]  # a cup turns the sheet back
+    again = rescore_runs([run], CONFIG, config).surfaces
+    assert again["cached"].all() and again["sph_N"].tolist() == f["sph_N"].tolist()
+    assert rescore_module.REFERENCES == ("flat plate", "pelton bucket")
+
+
+def test_solver_sph_scores_every_individual_and_resumes_from_its_checkpoints(
+    tmp_path, monkeypatch, capsys, fake_engine
+):
+    monkeypatch.chdir(tmp_path)
+    args = [*TINY, "--run-dir", "run", "--solver", "sph", "--particle-radius", "1", "--duration", "16",
+            "--cache-dir", "cache", "--json"]  # fmt: skip
+    assert main(args) == 0
+    captured = capsys.readouterr()
+    out = json.loads(captured.out)
+    assert "--solver sph: 0.02 s per simulation x at most 12 evaluations / 1 worker(s)" in captured.err
+    # fake force 1 + mean height: the bucket (in the initial population) wins by SPH
+    bucket = 1 + float(pelton_bucket_surface().points[:, 2].mean())
+    assert math.isclose(out["runs"][0]["best_N"], bucket, rel_tol=1e-12)
+    assert out["report"] == "run/report/casestudy.md"  # never the committed reports/
+    report = (tmp_path / "run" / "report" / "casestudy.md").read_text()
+    assert "**Fitness: SPH.**" in report and "particle radius 1 mm, 16 ms simulated" in report
+    record = json.loads((tmp_path / "run" / "fitness.json").read_text())
+    assert record["solver"] == "sph" and record["settings"]["particle_radius"] == 0.001
+    # every distinct individual once; the flat plate measured for the estimate is one of them
+    assert len(CALLS) == out["evaluations"]
+    # resumed: nothing simulated again; another fitness for the same run is refused
+    CALLS.clear()
+    assert main([*args, "--resume"]) == 0
+    assert json.loads(capsys.readouterr().out)["runs"] == out["runs"] and CALLS == []
+    assert main([*TINY, "--run-dir", "run", "--resume"]) == 1
+    assert (
+        "scored by SPH (duration 0.016, particle_radius 0.001), not the thin-sheet model"
+        in capsys.readouterr().err
+    )
+
+
+def test_solver_sph_prints_its_estimate_and_refuses_more_than_an_hour_without_yes(
+    tmp_path, monkeypatch, capsys, fake_engine
+):
+    monkeypatch.chdir(tmp_path)
+    import replication.casestudy.sph_fitness as sph_fitness
+
+    real = sph_fitness.estimate
+
+    def hours(fitness, *, workers):  # one simulation measured at 1000 s
+        e = real(fitness, workers=workers)
+        return sph_fitness.Estimate(1000.0, e.evaluations, e.workers, e.cached)
+
+    monkeypatch.setattr(sph_fitness, "estimate", hours)
+    args = [*TINY, "--run-dir", "run", "--solver", "sph", "--particle-radius", "1", "--duration", "16",
+            "--cache-dir", "cache"]  # fmt: skip
+    assert main(args) == 1
+    err = capsys.readouterr().err
+    assert "1e+03 s per simulation x at most 12 evaluations / 1 worker(s) = at most 3.33 h" in err
+    assert "exceeds 1 h: pass --yes" in err and not (tmp_path / "run" / "run-0.json").exists()
