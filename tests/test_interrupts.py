@@ -95,8 +95,13 @@ CASES = {
 
 
 @pytest.fixture(scope="module")
-def interrupted(tmp_path_factory):
-    """Every case started at once (each is pressed at its own moment); their run directories."""
+def interrupted(tmp_path_factory, uninterrupted):
+    """Every case started at once (each is pressed at its own moment); their run directories.
+
+    The reference run (``uninterrupted``) is made first. Made in this process while the cases
+    run, its compiled kernels (which hold the interpreter lock) would compete with the threads
+    that press Ctrl-C, and on a busy machine a case could finish before its thread pressed.
+    """
     base = tmp_path_factory.mktemp("interrupted")
     cases = {name: case for name, case in CASES.items() if name != "dask" or _has_dask()}
     started = {name: (base / name, *_interrupt(base / name, *case)) for name, case in cases.items()}
