@@ -46,10 +46,20 @@ def _generation(run_dir):
         return 0
 
 
+#: ``python -m replication`` with Python's own SIGINT handler, as when started from a terminal:
+#: a test session started in the background by a non-interactive shell inherits SIGINT
+#: ignored, and so would the command, which Ctrl-C then cannot stop.
+AS_FROM_A_TERMINAL = (
+    "import runpy, signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
+    "sys.argv[0] = 'replication'; runpy.run_module('replication', run_name='__main__', alter_sys=True)"
+)
+
+
 def _interrupt(run_dir, executor_args, after_generation, delay, timeout=120):
     """Start a GA run, press Ctrl-C (SIGINT to its process group) at the given moment."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "replication", "casestudy", *ARGS, *executor_args, "--run-dir", str(run_dir)],
+        [sys.executable, "-c", AS_FROM_A_TERMINAL, "casestudy", *ARGS, *executor_args,
+         "--run-dir", str(run_dir)],
         cwd=run_dir.parent, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
     )  # fmt: skip
 
@@ -95,13 +105,8 @@ CASES = {
 
 
 @pytest.fixture(scope="module")
-def interrupted(tmp_path_factory, uninterrupted):
-    """Every case started at once (each is pressed at its own moment); their run directories.
-
-    The reference run (``uninterrupted``) is made first. Made in this process while the cases
-    run, its compiled kernels (which hold the interpreter lock) would compete with the threads
-    that press Ctrl-C, and on a busy machine a case could finish before its thread pressed.
-    """
+def interrupted(tmp_path_factory):
+    """Every case started at once (each is pressed at its own moment); their run directories."""
     base = tmp_path_factory.mktemp("interrupted")
     cases = {name: case for name, case in CASES.items() if name != "dask" or _has_dask()}
     started = {name: (base / name, *_interrupt(base / name, *case)) for name, case in cases.items()}
