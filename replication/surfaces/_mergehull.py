@@ -34,18 +34,12 @@ import numpy as np
 from numba import njit
 
 from replication.surfaces._predicates import incircle, orient
+from replication.surfaces._sweephull import flip_if_illegal, link
 
 __all__ = ["SPARE_SLOTS", "compact", "finish", "grown", "hull_cycle", "merge"]
 
 #: Extra triangle slots reserved for each merge (see the module notes).
 SPARE_SLOTS = 8
-
-
-@njit(cache=True, inline="always")
-def _link(he, a, b):
-    he[a] = b
-    if b != -1:
-        he[b] = a
 
 
 @njit(cache=True, nogil=True)
@@ -79,39 +73,16 @@ def _flip_all(stack, top, xy, tri, he, hull_tri):
     while top > 0:
         top -= 1
         a = stack[top]
-        b = he[a]
+        b = flip_if_illegal(a, xy, tri, he, hull_tri)
         if b == -1:
             continue
-        a0 = a - a % 3
-        b0 = b - b % 3
-        a1 = a0 + (a + 1) % 3
-        a2 = a0 + (a + 2) % 3
-        b1 = b0 + (b + 1) % 3
-        b2 = b0 + (b + 2) % 3
-        p = tri[a]
-        q = tri[a1]
-        r = tri[a2]
-        s = tri[b2]
-        if incircle(xy[p, 0], xy[p, 1], xy[q, 0], xy[q, 1], xy[r, 0], xy[r, 1], xy[s, 0], xy[s, 1]) <= 0.0:
-            continue
-        ha2 = he[a2]
-        hb2 = he[b2]
-        tri[a] = s
-        tri[b] = r
-        _link(he, a, hb2)
-        if hb2 == -1:
-            hull_tri[s] = a
-        _link(he, b, ha2)
-        if ha2 == -1:
-            hull_tri[r] = b
-        _link(he, a2, b2)
         if top + 4 > stack.shape[0]:
             stack = grown(stack, top)
         # the four outer edges of the flipped pair: (s, q), (q, r), (r, p), (p, s)
         stack[top] = a
-        stack[top + 1] = a1
+        stack[top + 1] = a - a % 3 + (a + 1) % 3
         stack[top + 2] = b
-        stack[top + 3] = b1
+        stack[top + 3] = b - b % 3 + (b + 1) % 3
         top += 4
 
 
@@ -192,19 +163,19 @@ def merge(xy, tri, he, hull, left, right, slots, horizontal):
         used += 1
         tri[t] = l
         tri[t + 1] = r
-        _link(he, t, base)
+        link(he, t, base)
         if base == -1:
             bottom = t  # the lower tangent lb -> rb: a hull edge of the union
         if left_ok:  # triangle (l, r, lc): its edge lc -> l is the twin of the left hull edge l -> lc
             tri[t + 2] = lc
-            _link(he, t + 2, hull_tri[l])
+            link(he, t + 2, hull_tri[l])
             if l != lb:
                 hull_next[l] = l
             base = t + 1
             l = lc
         else:  # triangle (l, r, rc): its edge r -> rc is the twin of the right hull edge rc -> r
             tri[t + 2] = rc
-            _link(he, t + 1, hull_tri[rc])
+            link(he, t + 1, hull_tri[rc])
             if r != rb:
                 hull_next[r] = r
             base = t + 2

@@ -32,7 +32,7 @@ from numba import njit
 
 from replication.surfaces._predicates import incircle, orient
 
-__all__ = ["orient", "incircle", "seed_triangle", "sweep", "legalize"]
+__all__ = ["flip_if_illegal", "incircle", "legalize", "link", "orient", "seed_triangle", "sweep"]
 
 STATUS_OK = 0
 STATUS_COLLINEAR = 1
@@ -40,7 +40,8 @@ STATUS_SKIPPED = 2
 
 
 @njit(cache=True, inline="always")
-def _link(he, a, b):
+def link(he, a, b):
+    """Make half-edges ``a`` and ``b`` twins (``b`` = -1: ``a`` is a hull edge)."""
     he[a] = b
     if b != -1:
         he[b] = a
@@ -56,11 +57,48 @@ def _angle_key(dx, dy, mask):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def flip_if_illegal(a, xy, tri, he, hull_tri):
+    """Flip the edge of half-edge ``a`` if the point beyond it lies strictly in ``a``'s circle.
+
+    Triangle ``a`` is (p, q, r) with ``a`` running p -> q, its twin ``b`` (q, p, s). The flip
+    puts the two triangles (s, q, r) and (r, p, s) in the same slots, so ``a`` then runs
+    s -> q and ``b`` r -> p; hull half-edges that move to another slot are re-registered in
+    ``hull_tri``. Returns ``b``, or -1 when ``a`` is a hull edge or already locally Delaunay
+    (exact in-circle test: co-circular edges are never flipped, so flips terminate).
+    """
+    b = he[a]
+    if b == -1:
+        return -1
+    a0 = a - a % 3
+    b0 = b - b % 3
+    a1 = a0 + (a + 1) % 3
+    a2 = a0 + (a + 2) % 3
+    b2 = b0 + (b + 2) % 3
+    p = tri[a]
+    q = tri[a1]
+    r = tri[a2]
+    s = tri[b2]
+    if incircle(xy[p, 0], xy[p, 1], xy[q, 0], xy[q, 1], xy[r, 0], xy[r, 1], xy[s, 0], xy[s, 1]) <= 0.0:
+        return -1
+    ha2 = he[a2]
+    hb2 = he[b2]
+    tri[a] = s
+    tri[b] = r
+    link(he, a, hb2)
+    if hb2 == -1:
+        hull_tri[s] = a  # hull edge s -> q now lives in slot a
+    link(he, b, ha2)
+    if ha2 == -1:
+        hull_tri[r] = b  # hull edge r -> p now lives in slot b
+    link(he, a2, b2)
+    return b
+
+
+@njit(cache=True, nogil=True, inline="always")
 def legalize(start, xy, tri, he, hull_tri, stack):
     """Flip edges opposite a newly inserted point until all are locally Delaunay.
 
     Every edge on the stack is a half-edge whose triangle has the new point as its apex.
-    Hull half-edges that a flip moves to another slot are re-registered in ``hull_tri``.
     All flips of one insertion are incident to the new point and remove an edge for good,
     so the stack never holds more entries than the triangulation has edges.
     """
@@ -70,34 +108,12 @@ def legalize(start, xy, tri, he, hull_tri, stack):
     while top > 0:
         top -= 1
         a = stack[top]
-        b = he[a]
+        b = flip_if_illegal(a, xy, tri, he, hull_tri)
         if b == -1:
             continue
-        a0 = a - a % 3
-        b0 = b - b % 3
-        a1 = a0 + (a + 1) % 3
-        a2 = a0 + (a + 2) % 3
-        b1 = b0 + (b + 1) % 3
-        b2 = b0 + (b + 2) % 3
-        p = tri[a]
-        q = tri[a1]
-        r = tri[a2]  # the new point
-        s = tri[b2]
-        if incircle(xy[p, 0], xy[p, 1], xy[q, 0], xy[q, 1], xy[r, 0], xy[r, 1], xy[s, 0], xy[s, 1]) <= 0.0:
-            continue
-        ha2 = he[a2]
-        hb2 = he[b2]
-        tri[a] = s
-        tri[b] = r
-        _link(he, a, hb2)
-        if hb2 == -1:
-            hull_tri[s] = a  # hull edge s -> q now lives in slot a
-        _link(he, b, ha2)
-        if ha2 == -1:
-            hull_tri[r] = b  # hull edge r -> p now lives in slot b
-        _link(he, a2, b2)
+        # the two edges across from the new point r: (s, q) in slot a and (p, s) after b
         stack[top] = a
-        stack[top + 1] = b1
+        stack[top + 1] = b - b % 3 + (b + 1) % 3
         top += 2
 
 
@@ -263,7 +279,7 @@ def sweep(xy, lo, hi, i0, i1, i2, ccx, ccy, tri, he, t_lo, hull_next, hull_prev,
         tri[t] = e
         tri[t + 1] = p
         tri[t + 2] = nxt
-        _link(he, t + 2, hull_tri[e])
+        link(he, t + 2, hull_tri[e])
         hull_tri[e] = t
         hull_tri[p] = t + 1
         legalize(t + 2, xy, tri, he, hull_tri, stack)
@@ -278,8 +294,8 @@ def sweep(xy, lo, hi, i0, i1, i2, ccx, ccy, tri, he, t_lo, hull_next, hull_prev,
             tri[t] = nxt
             tri[t + 1] = p
             tri[t + 2] = q
-            _link(he, t + 2, hull_tri[nxt])
-            _link(he, t, hull_tri[p])
+            link(he, t + 2, hull_tri[nxt])
+            link(he, t, hull_tri[p])
             hull_tri[p] = t + 1
             legalize(t + 2, xy, tri, he, hull_tri, stack)
             hull_next[nxt] = nxt  # removed from the hull
@@ -296,8 +312,8 @@ def sweep(xy, lo, hi, i0, i1, i2, ccx, ccy, tri, he, t_lo, hull_next, hull_prev,
                 tri[t] = q
                 tri[t + 1] = p
                 tri[t + 2] = e
-                _link(he, t + 2, hull_tri[q])
-                _link(he, t + 1, hull_tri[e])
+                link(he, t + 2, hull_tri[q])
+                link(he, t + 1, hull_tri[e])
                 hull_tri[q] = t
                 legalize(t + 2, xy, tri, he, hull_tri, stack)
                 hull_next[e] = e
