@@ -18,6 +18,7 @@ from replication.casestudy.evaluate import Fitness, SerialExecutor, evaluate_bat
 from replication.casestudy.ga import GAConfig
 from replication.casestudy.runner import run_ga
 from replication.errors import InputError
+from workerfaults import DiesOnceWhenArmed
 
 SMALL = GAConfig(population=8, generations=4, elites=2, seed=7)
 POOLED = GAConfig(population=16, generations=3, elites=2, seed=7)
@@ -244,23 +245,6 @@ def test_run_ga_needs_exactly_one_executor_source(tmp_path):
 # ---- real worker processes --------------------------------------------------------------------
 
 
-class DiesOnce:
-    """The real fitness, but the first evaluation after ``armed`` exists kills its worker process."""
-
-    def __init__(self, config, armed, died):
-        self.inner, self.armed, self.died = Fitness(config), armed, died
-
-    def __call__(self, genome):
-        if os.path.exists(self.armed):
-            try:
-                os.close(os.open(self.died, os.O_CREAT | os.O_EXCL))
-            except FileExistsError:
-                pass
-            else:
-                os._exit(1)  # the pool breaks: BrokenProcessPool for everything in flight
-        return self.inner(genome)
-
-
 def _state(run):
     state = run.state()
     state.pop("seconds")
@@ -280,8 +264,9 @@ def test_process_pool_batches_and_survives_a_dead_worker_bit_identically(tmp_pat
             armed.touch()
 
     with Dispatcher(functools.partial(executor, "process", workers=2)) as dispatcher:
+        killed = DiesOnceWhenArmed(Fitness(POOLED), armed, died)
         survived = run_ga(POOLED, 0, run_dir=tmp_path / "pool", dispatcher=dispatcher,
-                          fitness=DiesOnce(POOLED, str(armed), str(died)), on_generation=arm)  # fmt: skip
+                          fitness=killed, on_generation=arm)  # fmt: skip
     assert died.exists() and dispatcher.replaced == 1
     assert _state(survived) == _state(reference) and survived.failures == []
     assert dispatcher.tasks < survived.evaluations  # several evaluations per task

@@ -23,6 +23,7 @@ from replication.casestudy.ga import (
 from replication.casestudy.runner import GARun, load_run, run_ga
 from replication.casestudy.shapes import flat_plate_cloud, pelton_bucket_cloud
 from replication.errors import InputError, OutputError
+from workerfaults import DiesOnceWhenArmed, pickled_by_value
 
 SMALL = GAConfig(population=8, generations=4, elites=2, seed=7)
 serial = functools.partial(executor, "serial")
@@ -246,35 +247,13 @@ def test_process_pool_gives_identical_results(tmp_path):
 # ---- dask.distributed -------------------------------------------------------------------------
 
 
-class DiesOnceWhenArmed:
-    """The real fitness, but the first evaluation after ``armed`` appears kills its worker."""
-
-    def __init__(self, config, armed, died):
-        self.inner, self.armed, self.died = Fitness(config), armed, died
-
-    def __call__(self, genome):
-        import os
-
-        if os.path.exists(self.armed):
-            try:
-                os.close(os.open(self.died, os.O_CREAT | os.O_EXCL))
-            except FileExistsError:
-                pass
-            else:
-                os._exit(1)  # the worker process dies mid-generation
-        return self.inner(genome)
-
-
 @pytest.fixture
 def dask_pickling(port_8787_taken):  # clusters must start beside another program's dashboard
     pytest.importorskip("dask.distributed")
     import sys
 
-    import cloudpickle
-
-    cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests/
-    yield
-    cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
+    with pickled_by_value(sys.modules[__name__]):  # workers cannot import tests/
+        yield
 
 
 @pytest.mark.slow
@@ -289,7 +268,7 @@ def test_dask_local_cluster_gives_identical_results(tmp_path, dask_pickling):
 @pytest.mark.slow
 def test_dask_worker_dying_mid_run_changes_nothing(tmp_path, dask_pickling):
     armed, died = tmp_path / "armed", tmp_path / "died"
-    fitness = DiesOnceWhenArmed(SMALL, str(armed), str(died))
+    fitness = DiesOnceWhenArmed(Fitness(SMALL), armed, died)
 
     def arm(state):
         if state.generation == 1:

@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from sph_fake import CALLS, fake_sph
 
 from replication.casestudy.ga import GAConfig
 from replication.casestudy.sph import engine_available
@@ -18,6 +17,7 @@ from replication.experiments.jet_validation import ValidationConfig, run_validat
 from replication.experiments.jet_validation_tables import SPH_COLUMN
 from replication.experiments.rank_stats import kendall_tau_b, spearman
 from replication.report.jet_validation import render_jet_validation, save_jet_validation_data
+from sph_fake import CALLS, fake_sph
 
 SMALL = ValidationConfig(
     radius=1e-3, resolution_radii=(1.5e-3, 1e-3), angles_deg=(10.0,), bowl_depths_mm=(13.0,),

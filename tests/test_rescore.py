@@ -11,7 +11,6 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
-from sph_fake import CALLS, fake_sph
 
 import replication.casestudy.sph as sph_package
 from replication.casestudy import rescore as rescore_module
@@ -26,6 +25,7 @@ from replication.errors import InputError
 from replication.experiments.casestudy_rescore import PAPER_EVALUATIONS, rescore_cost
 from replication.report.casestudy_rescore import RESCORE_FILES, rescore_section, save_rescore_data
 from replication.report.store import write_json
+from sph_fake import CALLS, fake_sph
 
 CONFIG = GAConfig(population=6, generations=2, runs=2)
 SETTINGS = SPHSettings(particle_radius=1e-3, duration=0.016)

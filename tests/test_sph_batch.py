@@ -13,7 +13,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from sph_fake import CALLS, REFUSED, RUNNING, fake_sph
 
 from replication.casestudy import JetConfig, flat_plate_cloud, sph_batch
 from replication.casestudy.sph import SPHSettings
@@ -28,6 +27,7 @@ from replication.casestudy.sph_batch import (
 )
 from replication.errors import InputError, SimulationError
 from replication.surfaces import adt, random_cloud
+from sph_fake import CALLS, REFUSED, RUNNING, fake_sph
 
 SETTINGS = SPHSettings(particle_radius=1e-3, duration=0.016)
 JET = JetConfig()

@@ -8,18 +8,18 @@ test_rescore.py and test_sph_*.py).
 
 import functools
 import json
-import os
 import sys
 
 import pytest
-import sph_fake
 
+import sph_fake
 from replication.casestudy.checkpoints import load_run
 from replication.casestudy.evaluate import executor
 from replication.casestudy.ga import GAConfig
 from replication.casestudy.runner import run_ga
 from replication.casestudy.sph import SPHSettings
 from replication.casestudy.sph_fitness import SPHFitness
+from workerfaults import DiesOnceWhenArmed, pickled_by_value
 
 CONFIG = GAConfig(population=4, generations=2, elites=2, seed=5)  # the issue's 4 x 2
 SETTINGS = SPHSettings(particle_radius=1e-3, duration=0.016)
@@ -31,23 +31,6 @@ def fitness(cache):
     return SPHFitness(CONFIG, SETTINGS, cache_dir=str(cache), simulate=sph_fake.fake_sph)
 
 
-class DiesOnceWhenArmed:
-    """SPH fitness whose first evaluation after ``armed`` appears kills its worker process."""
-
-    def __init__(self, inner, armed, died):
-        self.inner, self.armed, self.died = inner, armed, died
-
-    def __call__(self, genome):
-        if os.path.exists(self.armed):
-            try:
-                os.close(os.open(self.died, os.O_CREAT | os.O_EXCL))
-            except FileExistsError:
-                pass
-            else:
-                os._exit(1)  # the worker dies mid-evaluation
-        return self.inner(genome)
-
-
 def _state(run):
     state = run.state()
     state.pop("seconds")
@@ -57,14 +40,8 @@ def _state(run):
 @pytest.fixture
 def dask_pickling(port_8787_taken):
     pytest.importorskip("dask.distributed")
-    import cloudpickle
-
-    modules = [sys.modules[__name__], sph_fake]  # workers cannot import tests/
-    for module in modules:
-        cloudpickle.register_pickle_by_value(module)
-    yield
-    for module in modules:
-        cloudpickle.unregister_pickle_by_value(module)
+    with pickled_by_value(sys.modules[__name__], sph_fake):  # workers cannot import tests/
+        yield
 
 
 @pytest.mark.slow
@@ -80,7 +57,7 @@ def test_sph_ga_on_dask_loses_nothing_to_a_dead_worker_and_resumes_identically(t
         if state.generation == 1:
             armed.touch()
 
-    killed = DiesOnceWhenArmed(fitness(tmp_path / "c1"), str(armed), str(died))
+    killed = DiesOnceWhenArmed(fitness(tmp_path / "c1"), armed, died)
     survived = run_ga(
         CONFIG, 0, run_dir=tmp_path / "dask", pool_factory=dask2, fitness=killed, on_generation=arm
     )
