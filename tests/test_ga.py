@@ -147,6 +147,29 @@ def test_config_validation(kwargs, match):
         GAConfig(**kwargs)
 
 
+@pytest.mark.parametrize(
+    "draw",
+    [
+        lambda rng: random_genome(SMALL, rng=rng),
+        lambda rng: initial_population(SMALL, rng=rng),
+        lambda rng: np.array(select_parents(10, rng=rng)),
+        lambda rng: np.concatenate(two_point_crossover(np.arange(40), np.arange(40, 80), rng=rng)),
+        lambda rng: mutate(np.zeros(30, dtype=np.int64), 0.5, np.full(30, 7), rng=rng),
+        lambda rng: next_generation(
+            initial_population(SMALL, rng=0), np.arange(SMALL.population, dtype=float), SMALL, rng=rng
+        ),  # fmt: skip
+    ],
+    ids=["random_genome", "initial_population", "select_parents", "crossover", "mutate", "next_generation"],
+)
+def test_every_stochastic_step_takes_a_seed_or_a_generator(draw):
+    """The project's rule for randomness: rng is an int, a Generator or None (default_rng once)."""
+    assert np.array_equal(draw(7), draw(np.random.default_rng(7)))
+    assert np.array_equal(draw(7), draw(7))
+    generator = np.random.default_rng(7)
+    assert not np.array_equal(draw(generator), draw(generator))  # a generator is advanced, not copied
+    draw(None)
+
+
 # ---- runs -----------------------------------------------------------------------------------
 
 

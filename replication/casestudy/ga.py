@@ -161,15 +161,17 @@ def genome_from_points(points: np.ndarray, config: GAConfig) -> np.ndarray:
     return genome
 
 
-def random_genome(config: GAConfig, *, rng: np.random.Generator) -> np.ndarray:
+def random_genome(config: GAConfig, *, rng: int | np.random.Generator | None) -> np.ndarray:
     """A genome with every gene uniform on its axis's lattice."""
+    rng = np.random.default_rng(rng)
     return rng.integers(0, genome_bounds(config) + 1)
 
 
 def two_point_crossover(
-    a: np.ndarray, b: np.ndarray, *, rng: np.random.Generator
+    a: np.ndarray, b: np.ndarray, *, rng: int | np.random.Generator | None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Swap the genes between two distinct cut positions; returns two children."""
+    rng = np.random.default_rng(rng)
     n = a.shape[0]
     if b.shape != a.shape or n < 3:
         raise InputError(f"crossover needs two genomes of equal length >= 3, got {a.shape} and {b.shape}")
@@ -179,8 +181,11 @@ def two_point_crossover(
     return c1, c2
 
 
-def mutate(genome: np.ndarray, rate: float, bounds: np.ndarray, *, rng: np.random.Generator) -> np.ndarray:
+def mutate(
+    genome: np.ndarray, rate: float, bounds: np.ndarray, *, rng: int | np.random.Generator | None
+) -> np.ndarray:
     """Replace each gene with probability ``rate`` by another value of its axis's lattice."""
+    rng = np.random.default_rng(rng)
     hit = rng.random(genome.shape[0]) < rate
     out = genome.copy()
     if hit.any():
@@ -190,14 +195,16 @@ def mutate(genome: np.ndarray, rate: float, bounds: np.ndarray, *, rng: np.rando
     return out
 
 
-def select_parents(size: int, *, rng: np.random.Generator) -> tuple[int, int]:
+def select_parents(size: int, *, rng: int | np.random.Generator | None) -> tuple[int, int]:
     """Random selection: two distinct individuals, uniformly."""
+    rng = np.random.default_rng(rng)
     i, j = rng.choice(size, size=2, replace=False)
     return int(i), int(j)
 
 
-def initial_population(config: GAConfig, *, rng: np.random.Generator) -> np.ndarray:
+def initial_population(config: GAConfig, *, rng: int | np.random.Generator | None) -> np.ndarray:
     """The flat plate, the Pelton-bucket approximation and random genomes."""
+    rng = np.random.default_rng(rng)
     from replication.casestudy.shapes import flat_plate_cloud, pelton_bucket_cloud
 
     seeds = [genome_from_points(cloud, config) for cloud in (flat_plate_cloud(), pelton_bucket_cloud())]
@@ -206,13 +213,14 @@ def initial_population(config: GAConfig, *, rng: np.random.Generator) -> np.ndar
 
 
 def next_generation(
-    population: np.ndarray, fitness: np.ndarray, config: GAConfig, *, rng: np.random.Generator
+    population: np.ndarray, fitness: np.ndarray, config: GAConfig, *, rng: int | np.random.Generator | None
 ) -> np.ndarray:
     """Elites unchanged, then children of randomly selected pairs (crossover, mutation).
 
     Fitness ties are broken by the index in the population (a stable sort), so the result
     depends only on the population, its fitness and the generator's state.
     """
+    rng = np.random.default_rng(rng)
     order = np.argsort(-np.nan_to_num(fitness, nan=-np.inf), kind="stable")
     children = [population[k].copy() for k in order[: config.elites]]
     bounds = genome_bounds(config)

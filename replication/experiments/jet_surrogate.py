@@ -53,7 +53,7 @@ def fit_surrogate(
     jet: JetConfig,
     *,
     resamples: int,
-    rng: np.random.Generator,
+    rng: int | np.random.Generator | None,
     split_seed: Any,
 ) -> dict[str, pd.DataFrame] | None:
     """Fit on the calibration half, judge on the held-out half; None with too few SPH scores.

@@ -37,13 +37,19 @@ SPH_COLUMN = "sph_over_measured_flux"
 
 
 def agreement_row(
-    scope: str, reference: np.ndarray, scoring: np.ndarray, *, resamples: int, rng: np.random.Generator
+    scope: str,
+    reference: np.ndarray,
+    scoring: np.ndarray,
+    *,
+    resamples: int,
+    rng: int | np.random.Generator | None,
 ) -> dict[str, Any]:
     """Spearman and Kendall with bootstrap intervals, and the top-k overlaps, of one scope.
 
     ``top_k`` counts how many of the k best surfaces by ``scoring`` are among the k best by
     ``reference``; ``top_k_chance`` is its expectation for a random ranking, k^2 / n.
     """
+    rng = np.random.default_rng(rng)
     reference = np.asarray(reference, dtype=np.float64)
     scoring = np.asarray(scoring, dtype=np.float64)
     n = reference.size
@@ -62,12 +68,17 @@ def agreement_row(
 
 
 def agreement_table(
-    table: pd.DataFrame, config: Any, *, rng: np.random.Generator, column: str = "model_over_rho_q_v"
+    table: pd.DataFrame,
+    config: Any,
+    *,
+    rng: int | np.random.Generator | None,
+    column: str = "model_over_rho_q_v",
 ) -> pd.DataFrame:
     """Rank agreement of a scoring (default: the thin-sheet model) with SPH: all, families, spiky.
 
     Surfaces whose simulation failed are left out (and counted in the report).
     """
+    rng = np.random.default_rng(rng)
     ok = table[table["sph_status"] == "ok"]
     scopes: list[tuple[str, pd.DataFrame]] = [("all surfaces", ok)]
     scopes += [(f"family: {f}", ok[ok["family"] == f]) for f in FAMILIES if (ok["family"] == f).any()]
@@ -89,13 +100,16 @@ def agreement_table(
     )
 
 
-def convergence_table(resolution: pd.DataFrame, config: Any, *, rng: np.random.Generator) -> pd.DataFrame:
+def convergence_table(
+    resolution: pd.DataFrame, config: Any, *, rng: int | np.random.Generator | None
+) -> pd.DataFrame:
     """Each radius of the resolution study against the finest: ranking and force changes.
 
     Rows: one per radius, with the Spearman and Kendall of its SPH ranking against that of
     the finest radius, the largest and median change of force / rho Q V against the finest,
     and the Spearman of the thin-sheet model against SPH at that radius.
     """
+    rng = np.random.default_rng(rng)
     wide = resolution.pivot_table(index="surface", columns="radius_mm", values=SPH_COLUMN)
     if wide.empty:
         return pd.DataFrame(columns=["scope", "n", "radius_mm", "spearman", "max_change"])
@@ -142,7 +156,7 @@ def residual_table(resolution: pd.DataFrame) -> pd.DataFrame:
 
 
 def noise_table(
-    table: pd.DataFrame, repeatability: pd.DataFrame, *, rng: np.random.Generator
+    table: pd.DataFrame, repeatability: pd.DataFrame, *, rng: int | np.random.Generator | None
 ) -> pd.DataFrame:
     """The SPH noise floor and the Spearman it allows a perfect model, overall and for the spiky.
 
@@ -150,6 +164,7 @@ def noise_table(
     repeated (shifted) runs over sqrt(2) (the root mean square, so that a change's sign does
     not matter). ``spread`` is the standard deviation of the SPH scores themselves.
     """
+    rng = np.random.default_rng(rng)
     from replication.experiments.jet_repeatability import noise_ceiling
 
     changes = repeatability.loc[repeatability["status_shifted"] == "ok", "sph_change"].dropna().to_numpy()

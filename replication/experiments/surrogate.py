@@ -134,12 +134,18 @@ def calibrate(
 
 
 def judge(
-    table: pd.DataFrame, halves: pd.Series, column: str, *, resamples: int, rng: np.random.Generator
+    table: pd.DataFrame,
+    halves: pd.Series,
+    column: str,
+    *,
+    resamples: int,
+    rng: int | np.random.Generator | None,
 ) -> pd.DataFrame:
     """Rank agreement of a scoring with SPH on the held-out half, the calibration half and all.
 
     Only surfaces SPH scored count. ``column`` holds the scoring (force / rho Q V).
     """
+    rng = np.random.default_rng(rng)
     ok = table[table["sph_status"] == "ok"]
     rows = []
     for scope, part in (
