@@ -309,3 +309,25 @@ def test_no_process_is_left_behind(tmp_path, kind, port_8787_taken):
     assert process.returncode == 0, err
     assert int(out) > 0 and err == ""  # no warning about leaked resources either
     assert_no_process_left(process.pid)
+
+
+# ---- how worker processes start ----------------------------------------------------------------
+
+
+def test_workers_are_forked_on_linux_when_the_process_runs_one_thread_and_spawned_otherwise():
+    import sys
+    import threading
+
+    from replication.casestudy.interrupts import quiet_worker_context
+
+    release = threading.Event()
+    other = threading.Thread(target=release.wait)
+    other.start()
+    try:
+        assert quiet_worker_context().get_start_method() == "spawn"  # a fork would copy held locks
+    finally:
+        release.set()
+        other.join()
+    if threading.active_count() == 1:
+        expected = "fork" if sys.platform.startswith("linux") else "spawn"
+        assert quiet_worker_context().get_start_method() == expected

@@ -26,7 +26,7 @@ import numpy as np
 
 from replication.casestudy.dispatch import Dispatcher, Outcome
 from replication.casestudy.ga import GAConfig, points_from_genome
-from replication.casestudy.interrupts import ignore_interrupts, quiet_spawn_context
+from replication.casestudy.interrupts import ignore_interrupts, quiet_worker_context
 from replication.errors import DuplicatePointsWarning, InputError
 
 __all__ = [
@@ -196,7 +196,7 @@ def executor(
     elif kind == "process":
         with _resource_tracker_stopped():
             pool = cf.ProcessPoolExecutor(
-                max_workers=n, mp_context=quiet_spawn_context(), initializer=worker_initializer
+                max_workers=n, mp_context=quiet_worker_context(), initializer=worker_initializer
             )
             try:
                 yield pool

@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import multiprocessing.context
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 from types import FrameType
@@ -24,6 +25,7 @@ __all__ = [
     "caused_by_interrupt",
     "ignore_interrupts",
     "quiet_spawn_context",
+    "quiet_worker_context",
     "sigint_blocked",
 ]
 
@@ -114,6 +116,33 @@ class _QuietSpawnContext(multiprocessing.context.SpawnContext):
 
 def quiet_spawn_context() -> multiprocessing.context.SpawnContext:
     """A "spawn" multiprocessing context whose processes start with SIGINT blocked."""
+    return _QuietSpawnContext()
+
+
+class _QuietForkProcess(multiprocessing.context.ForkProcess):
+    def start(self) -> None:
+        with sigint_blocked():  # (multiprocessing flushes stdout and stderr before it forks)
+            super().start()
+
+
+class _QuietForkContext(multiprocessing.context.ForkContext):
+    Process = _QuietForkProcess
+
+
+def quiet_worker_context() -> multiprocessing.context.BaseContext:
+    """The context for worker processes: "fork" where that is safe, else "spawn"; SIGINT blocked.
+
+    A spawned worker starts a fresh interpreter, imports the package and loads the compiled
+    kernels from numba's cache: about a second of a 2-core machine per worker and per pool
+    (issue 15). A forked worker inherits all of that from the parent in milliseconds. Fork
+    is used only on Linux and only while the calling process runs a single thread (a fork
+    copies only the calling thread, so locks that other threads hold would stay locked in
+    the child); :class:`concurrent.futures.ProcessPoolExecutor` starts all its workers
+    before its own management thread when the start method is fork. Elsewhere, and with
+    other threads running, workers are spawned.
+    """
+    if sys.platform.startswith("linux") and threading.active_count() == 1:
+        return _QuietForkContext()
     return _QuietSpawnContext()
 
 

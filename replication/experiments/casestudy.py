@@ -238,6 +238,10 @@ def run_casestudy(
     Paper section 6, Figs. 8 and 9.
     """
     started = time.perf_counter()
+    # before the GA: the timing has the cores to itself, and worker processes forked later
+    # inherit the kernels these calls load (see .interrupts.quiet_worker_context)
+    shapes = _shapes(config)
+    evaluation = _evaluation_cost(config, timing_repeats)
     runs, histories, best, states = [], [], {}, []
     with Dispatcher(pool_factory) as dispatcher:  # one executor for every run of the command
         for k in range(config.runs):
@@ -265,8 +269,6 @@ def run_casestudy(
             "wall_s": gen_seconds, "seconds_per_evaluation": gen_seconds / max(state.evaluations, 1),
         })  # fmt: skip
     runs_frame = pd.DataFrame(runs)
-    shapes = _shapes(config)
-    evaluation = _evaluation_cost(config, timing_repeats)
     extra: dict[str, Any] = {} if solver is None else {"solver": solver}
     cost = None
     if rescored is not None:
