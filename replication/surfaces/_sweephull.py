@@ -94,7 +94,7 @@ def flip_if_illegal(a, xy, tri, he, hull_tri):
     return b
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def legalize(start, xy, tri, he, hull_tri, stack):
     """Flip edges opposite a newly inserted point until all are locally Delaunay.
 
