@@ -249,8 +249,8 @@ def _origin(prov: dict[str, Any], surfaces: pd.DataFrame) -> str:
         text += (
             f"\n- **Surfaces' origin**: built once by the code of commit `{built['commit'][:12]}`{dirty} "
             "and kept with the SPH cache (`surfaces/`, the GA runs in `ga-runs/`); the GA winners are the "
-            "winners of the GA as run then. The triangulator has since changed how it breaks ties on "
-            "lattice clouds, so a GA run by later code may find other winners; the study scores these."
+            "winners of the GA as run then (a later change of the model, or of how the triangulator breaks "
+            "ties on lattice clouds, would change a new GA run's winners; the study keeps scoring these)."
         )
     rekeyed = int(surfaces.get("sph_rekeyed", pd.Series(dtype=bool)).fillna(False).astype(bool).sum())
     if rekeyed:
