@@ -2,6 +2,9 @@
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as hst
+from hypothesis.extra import numpy as st_np
 from scipy import stats
 
 from replication.errors import InputError
@@ -148,3 +151,33 @@ def test_as_dict_is_strict_json():
     st = paired_statistics(np.arange(10.0), np.arange(10.0), depth_range=9.0)  # NaN normality p
     json.dumps(st.as_dict(), allow_nan=False)
     assert st.as_dict()["normality_p"] is None
+
+
+# samples of 3-13 pairs on a coarse grid: ties and zero differences are common, so scipy's
+# wilcoxon takes its exact sign-flip permutation path that ours vectorises
+_small_grid_samples = st_np.arrays(
+    np.float64, hst.integers(3, 13), elements=hst.sampled_from([0.0, 0.5, 1.0, 1.5, 2.0, 3.25])
+)
+
+
+@settings(max_examples=25, deadline=None)
+@given(a=_small_grid_samples, data=hst.data())
+def test_wilcoxon_is_scipys_exactly_on_small_samples_with_ties_and_zeros(a, data):
+    b = data.draw(st_np.arrays(np.float64, a.size, elements=hst.sampled_from([0.0, 0.5, 1.0, 2.0])))
+    assume(np.any(a != b) and np.std(a - b) > 0)
+    ours = paired_statistics(a, b, depth_range=3.0)
+    w = stats.wilcoxon(a, b)
+    assert ours.wilcoxon.statistic == w.statistic  # equal, not approximately
+    assert ours.wilcoxon.p_value == w.pvalue
+
+
+def test_wilcoxon_permutation_path_known_case():
+    # d = (1, 1, -2, 3, 0, 1, -1, 2, 2): zero and ties, n = 9, so scipy enumerates 2**9 flips
+    a = np.array([2.0, 2.0, 0.0, 4.0, 1.0, 3.0, 0.0, 3.0, 5.0])
+    b = np.array([1.0, 1.0, 2.0, 1.0, 1.0, 2.0, 1.0, 1.0, 3.0])
+    ours = paired_statistics(a, b, depth_range=5.0)
+    w = stats.wilcoxon(a, b)
+    assert (ours.wilcoxon.statistic, ours.wilcoxon.p_value) == (w.statistic, w.pvalue)
+    # |d| without the zero ranks 1 x4 -> 2.5, 2 x3 -> 6, 3 -> 8: r- = 6 + 2.5 = 8.5, r+ = 27.5
+    assert ours.wilcoxon.statistic == 8.5
+    assert ours.wilcoxon.p_value == 2 * 62 / 512  # 62 of the 2**9 sign flips give r+ <= 8.5
