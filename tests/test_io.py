@@ -6,6 +6,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import pyvista as pv
+from hypothesis import given, settings
+from hypothesis import strategies as hst
+from hypothesis.extra import numpy as hnp
 
 from replication.errors import CloudFileError, InputError, OutputError
 from replication.io import atomic as atomic_module
@@ -16,6 +19,7 @@ from replication.io import (
     load_cloud,
     read_surface,
     save_cloud,
+    shortest_decimals,
     write_surface,
     write_vtk,
     write_vtp,
@@ -47,6 +51,30 @@ def test_legacy_vtk_known_answer():
 def test_format_number_is_shortest_round_trip(value, text):
     assert format_number(value) == text
     assert float(text) == value
+
+
+@settings(max_examples=200, deadline=None)
+@given(hnp.arrays(np.float64, hst.integers(0, 40), elements=hst.floats(width=64)))
+def test_shortest_decimals_is_format_number_of_each_value(values):
+    # the writers format whole columns at once; the text must be the value-by-value one
+    assert shortest_decimals(values) == [format_number(v) for v in values.tolist()]
+
+
+def test_shortest_decimals_edge_values():
+    values = np.array([3.0, -0.0, 10.0, 100.05, 1e16, 1e-5, np.inf, np.nan, 0.5, 30.0])
+    assert shortest_decimals(values) == [
+        "3",
+        "-0",
+        "10",
+        "100.05",
+        "1e+16",
+        "1e-05",
+        "inf",
+        "nan",
+        "0.5",
+        "30",
+    ]
+    assert shortest_decimals(np.empty(0)) == []
 
 
 @pytest.mark.parametrize("suffix", [".vtk", ".vtp"])

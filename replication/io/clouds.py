@@ -16,7 +16,7 @@ import numpy as np
 
 from replication.errors import CloudFileError, CloudFileWarning, InputError, shown
 from replication.io.atomic import atomic_path, atomic_write_text
-from replication.io.vtk import format_number
+from replication.io.vtk import shortest_decimals
 from replication.surfaces.cloud import as_cloud
 
 __all__ = ["CLOUD_SUFFIXES", "load_cloud", "save_cloud"]
@@ -206,5 +206,6 @@ def save_cloud(points: np.ndarray, path: str | os.PathLike[str]) -> int:
         )
     sep = "," if suffix == ".csv" else " "
     header = "x,y,z\n" if suffix == ".csv" else ""
-    rows = (sep.join(format_number(v) for v in row) for row in cloud.tolist())
-    return atomic_write_text(path, header + "\n".join(rows) + "\n")
+    row = sep.join(["{}"] * cloud.shape[1]) + "\n"
+    rows = "".join(map(row.format, *(shortest_decimals(cloud[:, k]) for k in range(cloud.shape[1]))))
+    return atomic_write_text(path, header + rows)

@@ -22,7 +22,7 @@ import numpy as np
 
 from replication.errors import CloudFileError, InputError
 from replication.io.atomic import atomic_path, atomic_write_text
-from replication.io.vtk import format_number
+from replication.io.vtk import format_number, shortest_decimals
 from replication.surfaces.nurbs import NurbsPatch
 
 __all__ = ["NURBS_FORMATS", "nurbs_format", "read_nurbs", "smesh_text", "write_nurbs"]
@@ -37,21 +37,21 @@ def smesh_text(patch: NurbsPatch, *, digits: int | None = None) -> str:
     significant digits (lossy, for comparisons at equal precision).
     """
     m_u, m_v = patch.net_shape
-    fmt = format_number if digits is None else (lambda v: format_number(float(f"{v:.{int(digits)}g}")))
-    lines = [
-        "3",
-        f"{patch.degree_u} {patch.degree_v}",
-        f"{m_u} {m_v}",
-        " ".join(map(fmt, patch.knots_u.tolist())),
-        " ".join(map(fmt, patch.knots_v.tolist())),
-    ]
-    points = patch.control_points.transpose(1, 0, 2).reshape(-1, 3)  # u varies fastest
-    weights = patch.weights.T.ravel()
-    lines.extend(
-        f"{fmt(x)} {fmt(y)} {fmt(z)} {fmt(w)}" for (x, y, z), w in zip(points.tolist(), weights.tolist())
+    if digits is None:
+        numbers = shortest_decimals
+    else:
+
+        def numbers(values: np.ndarray) -> list[str]:
+            return [format_number(float(f"{v:.{int(digits)}g}")) for v in np.ravel(values).tolist()]
+
+    header = (
+        f"3\n{patch.degree_u} {patch.degree_v}\n{m_u} {m_v}\n"
+        f"{' '.join(numbers(patch.knots_u))}\n{' '.join(numbers(patch.knots_v))}\n"
     )
-    lines.append("1")  # geomdl's trailing flag (not read back)
-    return "\n".join(lines) + "\n"
+    points = patch.control_points.transpose(1, 0, 2).reshape(-1, 3)  # u varies fastest
+    columns = [numbers(points[:, k]) for k in range(3)] + [numbers(patch.weights.T)]
+    rows = "".join(map("{} {} {} {}\n".format, *columns))
+    return header + rows + "1\n"  # geomdl's trailing flag (not read back)
 
 
 def nurbs_format(path: str | os.PathLike[str], fmt: str | None = None) -> str:

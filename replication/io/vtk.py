@@ -25,6 +25,7 @@ __all__ = [
     "TriangleMesh",
     "format_number",
     "legacy_vtk_text",
+    "shortest_decimals",
     "read_surface",
     "surface_format",
     "write_surface",
@@ -52,6 +53,19 @@ def format_number(value: float) -> str:
     return _strip_zero(repr(float(value)))
 
 
+def shortest_decimals(values: np.ndarray) -> list[str]:
+    """:func:`format_number` of every value, formatted by one C-level ``repr`` of the list.
+
+    Python's ``repr`` of a list of floats prints each with the shortest round-trip decimal,
+    separated by ``", "``; only a token's end can be ``.0`` before a separator, so stripping
+    it there gives the same text as formatting value by value, 2-3x faster.
+    """
+    flat = np.asarray(values, dtype=np.float64).ravel()
+    if flat.size == 0:
+        return []
+    return repr(flat.tolist())[1:-1].replace(".0, ", ", ").removesuffix(".0").split(", ")
+
+
 def legacy_vtk_text(
     points: np.ndarray, triangles: np.ndarray, *, title: str = "ADT surface", digits: int | None = None
 ) -> str:
@@ -72,8 +86,11 @@ def legacy_vtk_text(
         f"# vtk DataFile Version 3.0\n{title}\nASCII\nDATASET POLYDATA\nPOINTS {points.shape[0]} double\n"
     )
     # column-wise formatting: about 3x faster than formatting point by point
-    number = repr if digits is None else f"{{:.{int(digits)}g}}".format
-    columns = [[_strip_zero(v) for v in map(number, points[:, k].tolist())] for k in range(3)]
+    if digits is None:
+        columns = [shortest_decimals(points[:, k]) for k in range(3)]
+    else:
+        number = f"{{:.{int(digits)}g}}".format
+        columns = [[_strip_zero(v) for v in map(number, points[:, k].tolist())] for k in range(3)]
     point_lines = "".join(map("{} {} {}\n".format, *columns))
     polygons = f"POLYGONS {triangles.shape[0]} {4 * triangles.shape[0]}\n"
     triangle_lines = "".join(map("3 {} {} {}\n".format, *triangles.T.tolist()))
