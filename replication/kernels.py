@@ -9,7 +9,7 @@ package uses. Importing this module compiles nothing.
 
 from __future__ import annotations
 
-__all__ = ["warm_up"]
+__all__ = ["release_threads", "warm_up"]
 
 
 def warm_up() -> None:
@@ -46,3 +46,15 @@ def warm_up() -> None:
         bucket = adt(lattice * [1.0, 1.0, 0.5], depth="z")
         surface_force(bucket)
         jet_force(bucket.points, bucket.triangles)
+
+
+def release_threads() -> None:
+    """Stop the idle threads of the kernels' thread pool (they restart when next needed).
+
+    Call it between stages of a long command: once only the main thread runs, the case
+    study's worker processes are forked (milliseconds) rather than spawned (about a second
+    each, issue 15).
+    """
+    from replication.surfaces._threads import release
+
+    release()

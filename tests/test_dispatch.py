@@ -331,3 +331,26 @@ def test_workers_are_forked_on_linux_when_the_process_runs_one_thread_and_spawne
     if threading.active_count() == 1:
         expected = "fork" if sys.platform.startswith("linux") else "spawn"
         assert quiet_worker_context().get_start_method() == expected
+
+
+def test_released_kernel_threads_let_the_next_pool_fork():
+    import sys
+    import threading
+
+    from replication.casestudy.interrupts import quiet_worker_context
+    from replication.kernels import release_threads
+    from replication.surfaces import _threads
+
+    if _threads.threads() < 2:
+        pytest.skip("needs 2 kernel threads")
+    release_threads()
+    before = threading.active_count()  # other tests' threads may still be alive
+    assert _threads.run([lambda: 1, lambda: 2, lambda: 3]) == [1, 2, 3]  # starts the pool
+    assert threading.active_count() > before and quiet_worker_context().get_start_method() == "spawn"
+    release_threads()
+    assert threading.active_count() == before
+    if before == 1:
+        linux = sys.platform.startswith("linux")
+        assert quiet_worker_context().get_start_method() == ("fork" if linux else "spawn")
+    assert _threads.run([lambda: 4, lambda: 5]) == [4, 5]  # and the pool comes back when needed
+    release_threads()

@@ -12,6 +12,7 @@ from replication.cli.casestudy import plan_casestudy, run_and_report
 from replication.cli.common import positive_int
 from replication.cli.outputs import DEFAULT_DIR, QUICK_DIR, finish_reports, planned_output_dir
 from replication.cli.progress import progress_bar
+from replication.kernels import release_threads
 
 #: The markdown files ``replication report`` may write.
 RENDERED = ("table1.md", "sph.md", "casestudy.md", "performance.md", "index.md")
@@ -149,6 +150,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         t0 = time.perf_counter()
         if name == "table1":
             path = _run_table1(out, args.quick, args.invocation)
+            release_threads()  # the case study's workers can then be forked, not spawned
         elif name == "sph":  # optional: needs the engine (pip install ".[sph]")
             from replication.casestudy.sph import INSTALL_HINT, engine_available
             from replication.cli.sph import run_sph_report
