@@ -160,7 +160,7 @@ _small_grid_samples = st_np.arrays(
 )
 
 
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=12, deadline=None)  # scipy's own call takes 0.1 s
 @given(a=_small_grid_samples, data=hst.data())
 def test_wilcoxon_is_scipys_exactly_on_small_samples_with_ties_and_zeros(a, data):
     b = data.draw(st_np.arrays(np.float64, a.size, elements=hst.sampled_from([0.0, 0.5, 1.0, 2.0])))
