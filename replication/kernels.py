@@ -2,24 +2,81 @@
 
 Every kernel is compiled lazily on its first call, and numba caches the machine code next to
 the sources, so only the first use in a fresh environment pays for compiling. Callers that
-want that cost up front, in one place (the test suite's session start, a benchmark setup),
-call :func:`warm_up`: it runs each kernel once on a tiny input with the argument types the
-package uses. Importing this module compiles nothing.
+want that cost up front, in one place (the test suite's session start, ``replication
+reproduce``, a benchmark setup), call :func:`warm_up`: it runs each kernel once on a tiny
+input with the argument types the package uses. Importing this module compiles nothing.
+
+Compiling everything takes about 35 s of one core in a fresh environment (measured on this
+project's 2-core machine): the triangulator's kernels about 19 s, the water-jet model's
+about 16 s. numba compiles under the GIL, so ``warm_up(processes=2)`` compiles the jet
+model's kernels in a second Python process, into the same on-disk cache, while this process
+compiles the rest, then loads them from the cache (about 23 s in all). The helper starts only
+when the first kernels had to be compiled: with a warm cache everything only loads (1 s).
 """
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 __all__ = ["release_threads", "warm_up"]
 
+#: Seconds to wait for the helper process of ``warm_up(processes=2)``; after that this
+#: process compiles what is missing itself (the helper is then stopped).
+HELPER_TIMEOUT = 600.0
 
-def warm_up() -> None:
-    """Run every compiled kernel once on tiny inputs (compiling it or loading it from cache)."""
+
+def warm_up(*, processes: int = 1) -> None:
+    """Run every compiled kernel once on tiny inputs (compiling it or loading it from cache).
+
+    Parameters
+    ----------
+    processes : int
+        1: compile everything here. 2 or more: compile the water-jet kernels in a helper
+        process at the same time (see the module notes); if the helper fails, whatever it
+        did not cache is compiled here, so the result is the same either way.
+    """
     import warnings
 
+    from numba.core import event
+
+    from replication.errors import DuplicatePointsWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DuplicatePointsWarning)
+        with event.install_recorder("numba:compile") as compiled:
+            bucket = _shared()  # first, so that the two processes never compile the same kernel
+        cold = bool(compiled.buffer)  # a fresh cache (or changed sources): worth a second process
+        helper = _start_helper() if processes > 1 and cold else None
+        try:
+            _triangulation()
+            if helper is not None:
+                try:
+                    helper.wait(timeout=HELPER_TIMEOUT)
+                except subprocess.TimeoutExpired:  # stuck: what it did not cache is compiled below
+                    _stop(helper)
+        except BaseException:  # Ctrl-C or an error here: the helper goes too
+            if helper is not None:
+                _stop(helper)
+            raise
+        _jet(bucket)  # loads what the helper cached; compiles whatever it did not
+
+
+def _shared():
+    """The kernels both groups use: a small ADT surface with the scipy backend (the jet
+    kernels' test surface; about 2 s of compiling)."""
+    from replication.surfaces import adt, random_cloud
+
+    lattice = random_cloud(64, step=1.0, rng=0)
+    return adt(lattice * [1.0, 1.0, 0.5], depth="z", backend="scipy")
+
+
+def _triangulation() -> None:
+    """The sweep-hull triangulator, the NURBS gridding and the interpolation kernels."""
     import numpy as np
 
-    from replication.casestudy.jet import jet_force, surface_force
-    from replication.errors import DuplicatePointsWarning
     from replication.surfaces import _raster, _triangulate, adt, random_cloud
     from replication.surfaces._threads import frozen
     from replication.surfaces.interpolate import interpolate_linear, nearest_vertices
@@ -27,25 +84,61 @@ def warm_up() -> None:
 
     cloud = random_cloud(64, rng=0)
     lattice = random_cloud(64, step=1.0, rng=0)
+    for points in (cloud, lattice):
+        surface = adt(points)  # the one-call path for small clouds
+        adt(points, backend="scipy")  # the hash grouping
+        for levels in (0, 1):  # one block (general path), and blocks with merges and partition
+            _triangulate._triangulate(frozen(points, np.float64), (0, 1), levels)
+    owners = tuple(np.full((2, 2), -1, dtype=np.int32) for _ in range(_raster._RUNS))
+    _raster._combine(owners, tuple(np.zeros((2, 2)) for _ in range(_raster._RUNS)), 0, 2)
+    fit_nurbs(cloud, evaluator="fast", triangulation=surface, tessellation=(4, 4))
+    uv = surface.projected()
+    depth = surface.points[:, surface.depth_axis]
+    interpolate_linear(uv, surface.triangles, depth, uv[:3] * 2, neighbors=surface.neighbors,
+                       nearest_outside=True)  # fmt: skip
+    interpolate_linear(uv, surface.triangles, depth, uv[:3], convex=False)
+    nearest_vertices(uv, surface.triangles, surface.neighbors, uv[:3], np.zeros(3, np.int32))
+
+
+def _jet(bucket) -> None:
+    """The water-jet model's kernels, on a surface and on a bare mesh."""
+    from replication.casestudy.jet import jet_force, surface_force
+
+    surface_force(bucket)
+    jet_force(bucket.points, bucket.triangles)
+
+
+def _helper_main() -> None:
+    """The helper process of ``warm_up(processes=2)``: the jet kernels, into the cache."""
+    import warnings
+
+    from replication.errors import DuplicatePointsWarning
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DuplicatePointsWarning)
-        for points in (cloud, lattice):
-            surface = adt(points)  # the one-call path for small clouds
-            adt(points, backend="scipy")  # the hash grouping
-            for levels in (0, 1):  # one block (general path), and blocks with merges and partition
-                _triangulate._triangulate(frozen(points, np.float64), (0, 1), levels)
-        owners = tuple(np.full((2, 2), -1, dtype=np.int32) for _ in range(_raster._RUNS))
-        _raster._combine(owners, tuple(np.zeros((2, 2)) for _ in range(_raster._RUNS)), 0, 2)
-        fit_nurbs(cloud, evaluator="fast", triangulation=surface, tessellation=(4, 4))
-        uv = surface.projected()
-        depth = surface.points[:, surface.depth_axis]
-        interpolate_linear(uv, surface.triangles, depth, uv[:3] * 2, neighbors=surface.neighbors,
-                           nearest_outside=True)  # fmt: skip
-        interpolate_linear(uv, surface.triangles, depth, uv[:3], convex=False)
-        nearest_vertices(uv, surface.triangles, surface.neighbors, uv[:3], np.zeros(3, np.int32))
-        bucket = adt(lattice * [1.0, 1.0, 0.5], depth="z")
-        surface_force(bucket)
-        jet_force(bucket.points, bucket.triangles)
+        _jet(_shared())
+
+
+def _start_helper() -> subprocess.Popen | None:
+    """Start the helper (same interpreter, environment and package); None if it cannot start."""
+    root = str(Path(__file__).resolve().parents[1])  # the package's own copy, wherever it runs from
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([root, *filter(None, [env.get("PYTHONPATH")])])
+    try:
+        return subprocess.Popen(
+            [sys.executable, "-c", "from replication.kernels import _helper_main; _helper_main()"],
+            env=env,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+    except OSError:
+        return None
+
+
+def _stop(helper: subprocess.Popen) -> None:
+    helper.kill()
+    helper.wait()
 
 
 def release_threads() -> None:

@@ -9,6 +9,7 @@ test passes either way.
 import warnings
 
 import numpy as np
+import pytest
 from numba.core import event
 
 from replication.errors import DuplicatePointsWarning
@@ -40,3 +41,86 @@ def test_after_warm_up_a_full_workload_compiles_nothing():
         event.unregister("numba:compile", compiled)
     names = sorted({str(e.data["dispatcher"]) for _, e in compiled.buffer if e.is_start})
     assert names == [], names
+
+
+# ---- warm_up(processes=2): the jet kernels compiled in a helper process ------------------------
+# (the real thing, compiling into a fresh cache on two cores, is the session start of a fresh
+# clone, which the test above then checks; these tests check what happens around the helper)
+
+
+def _cold_shared(monkeypatch):
+    """Make warm_up see a cold cache: its first step compiles something genuinely new."""
+    import numba
+
+    import replication.kernels as kernels
+
+    shared = kernels._shared
+
+    def cold():
+        numba.njit(lambda x: x + 1)(1)  # not cached: a real "numba:compile" event
+        return shared()
+
+    monkeypatch.setattr(kernels, "_shared", cold)
+
+
+def _helper(monkeypatch, code):
+    import subprocess
+    import sys
+
+    import replication.kernels as kernels
+
+    started = []
+
+    def start():
+        started.append(subprocess.Popen([sys.executable, "-c", code]))
+        return started[-1]
+
+    monkeypatch.setattr(kernels, "_start_helper", start)
+    return started
+
+
+def test_warm_up_starts_no_helper_when_the_cache_is_warm(monkeypatch):
+    started = _helper(monkeypatch, "pass")
+    warm_up(processes=2)
+    assert started == []
+
+
+def test_a_failing_helper_changes_nothing_but_the_time(monkeypatch):
+    _cold_shared(monkeypatch)
+    started = _helper(monkeypatch, "raise SystemExit(3)")
+    warm_up(processes=2)
+    assert [p.returncode for p in started] == [3]  # started, waited for; this process did the rest
+    test_after_warm_up_a_full_workload_compiles_nothing()
+
+
+def test_a_stuck_helper_is_stopped_after_the_timeout(monkeypatch):
+    import replication.kernels as kernels
+
+    _cold_shared(monkeypatch)
+    started = _helper(monkeypatch, "import time; time.sleep(60)")
+    monkeypatch.setattr(kernels, "HELPER_TIMEOUT", 0.5)
+    warm_up(processes=2)
+    assert len(started) == 1 and started[0].returncode is not None  # killed, not left running
+
+
+def test_ctrl_c_during_warm_up_stops_the_helper(monkeypatch):
+    import replication.kernels as kernels
+
+    _cold_shared(monkeypatch)
+    started = _helper(monkeypatch, "import time; time.sleep(60)")
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(kernels, "_triangulation", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        warm_up(processes=2)
+    assert len(started) == 1 and started[0].returncode is not None
+
+
+def test_the_real_helper_runs_and_exits_cleanly():
+    # the helper as warm_up starts it (same interpreter and package), on a warm cache: loads only
+    import replication.kernels as kernels
+
+    helper = kernels._start_helper()
+    assert helper is not None and helper.wait(timeout=120) == 0
