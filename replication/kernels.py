@@ -16,7 +16,6 @@ when the first kernels had to be compiled: with a warm cache everything only loa
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -120,14 +119,17 @@ def _helper_main() -> None:
 
 
 def _start_helper() -> subprocess.Popen | None:
-    """Start the helper (same interpreter, environment and package); None if it cannot start."""
-    root = str(Path(__file__).resolve().parents[1])  # the package's own copy, wherever it runs from
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([root, *filter(None, [env.get("PYTHONPATH")])])
+    """Start the helper (same interpreter, environment and package); None if it cannot start.
+
+    The package's own directory goes first on the helper's path: numba caches next to the
+    sources, so a helper that imported another copy (a checkout in the working directory,
+    say) would compile into the wrong cache.
+    """
+    root = str(Path(__file__).resolve().parents[1])
+    code = f"import sys; sys.path.insert(0, {root!r}); import replication.kernels as k; k._helper_main()"
     try:
         return subprocess.Popen(
-            [sys.executable, "-c", "from replication.kernels import _helper_main; _helper_main()"],
-            env=env,
+            [sys.executable, "-c", code],
             stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,

@@ -118,9 +118,13 @@ def test_ctrl_c_during_warm_up_stops_the_helper(monkeypatch):
     assert len(started) == 1 and started[0].returncode is not None
 
 
-def test_the_real_helper_runs_and_exits_cleanly():
-    # the helper as warm_up starts it (same interpreter and package), on a warm cache: loads only
+def test_the_real_helper_imports_this_package_whatever_the_working_directory(tmp_path, monkeypatch):
+    # numba caches next to the sources: a helper that imported another copy of the package
+    # (a checkout in the working directory, say) would compile into the wrong cache
     import replication.kernels as kernels
 
-    helper = kernels._start_helper()
+    (tmp_path / "replication").mkdir()
+    (tmp_path / "replication" / "__init__.py").write_text("raise ImportError('the wrong copy')\n")
+    monkeypatch.chdir(tmp_path)
+    helper = kernels._start_helper()  # on a warm cache it only loads the kernels
     assert helper is not None and helper.wait(timeout=120) == 0
