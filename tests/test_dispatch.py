@@ -5,7 +5,6 @@ import contextlib
 import functools
 import json
 import math
-import os
 import time
 
 import numpy as np
@@ -18,7 +17,7 @@ from replication.casestudy.evaluate import Fitness, SerialExecutor, evaluate_bat
 from replication.casestudy.ga import GAConfig
 from replication.casestudy.runner import run_ga
 from replication.errors import InputError
-from workerfaults import DiesOnceWhenArmed
+from workerfaults import DiesOnceWhenArmed, assert_no_process_left
 
 SMALL = GAConfig(population=8, generations=4, elites=2, seed=7)
 POOLED = GAConfig(population=16, generations=3, elites=2, seed=7)
@@ -285,12 +284,6 @@ with Dispatcher(functools.partial(executor, sys.argv[1], workers=2)) as dispatch
         run_ga(config, k, run_dir=sys.argv[2], dispatcher=dispatcher)
 print(dispatcher.tasks)
 """
-
-
-def assert_no_process_left(pgid):
-    """Nothing of a finished command's process group (its pool, cluster, resource tracker) is left."""
-    with pytest.raises(ProcessLookupError):
-        os.killpg(pgid, 0)  # signal 0: does any process of the group exist?
 
 
 @pytest.mark.slow

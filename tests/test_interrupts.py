@@ -6,6 +6,7 @@ compiled jet kernel), must stop with exit status 130, keep its last complete che
 no failure recorded, and, resumed, end bit-identical to an uninterrupted run.
 """
 
+import contextlib
 import functools
 import json
 import os
@@ -14,12 +15,14 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import pytest
 
 from replication.casestudy.evaluate import executor
 from replication.casestudy.ga import GAConfig
 from replication.casestudy.runner import run_ga
+from workerfaults import assert_no_process_left
 
 CONFIG = GAConfig(runs=1, generations=12, population=12)
 ARGS = ["--runs", "1", "--generations", "12", "--population", "12"]
@@ -143,3 +146,86 @@ def test_ctrl_c_with_worker_processes(interrupted, uninterrupted, name):
     _check_stopped(process, presser, run_dir)
     run_ga(CONFIG, 0, run_dir=run_dir, pool_factory=serial, resume=True)
     assert _state(run_dir) == uninterrupted
+
+
+_SIMULATING = """
+import os, signal, sys, time
+signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal
+sys.path.insert(0, sys.argv[3])
+import workerfaults
+from replication.casestudy.evaluate import executor
+
+run_dir = sys.argv[1]
+with executor("process", workers=1, on_interrupt=lambda: print("stopping", flush=True)) as pool:
+    future = pool.submit(workerfaults.sleeping_simulation, run_dir, float(sys.argv[2]))
+    while not os.path.exists(os.path.join(run_dir, "pid")):
+        time.sleep(0.02)
+    raise KeyboardInterrupt  # Ctrl-C while a simulation is under way
+"""
+
+
+def _interrupted_simulation(tmp_path, seconds):
+    process = subprocess.Popen(
+        [sys.executable, "-c", _SIMULATING, str(tmp_path), str(seconds), str(Path(__file__).parent)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+    )  # fmt: skip
+    lines = []
+    reader = threading.Thread(target=lambda: lines.append(process.stdout.readline()), daemon=True)
+    reader.start()
+    reader.join(timeout=60)  # never wait for ever on a child that does not get that far
+    if lines != ["stopping\n"]:  # said before the pool waits
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)
+        _, err = process.communicate(timeout=60)
+        pytest.fail(f"the command did not say that it stops: {lines}, stderr: {err[-2000:]}")
+    return process
+
+
+@pytest.mark.slow
+def test_ctrl_c_lets_a_simulation_under_way_finish(tmp_path):
+    process = _interrupted_simulation(tmp_path, 2.0)
+    _, err = process.communicate(timeout=60)
+    assert "KeyboardInterrupt" in err and (tmp_path / "finished").exists()
+
+
+@pytest.mark.slow
+def test_ctrl_c_again_abandons_the_simulation_under_way_and_leaves_no_process(tmp_path):
+    process = _interrupted_simulation(tmp_path, 600.0)
+    driver = int((tmp_path / "pid").read_text())
+    try:
+        time.sleep(0.5)  # the pool is waiting for the simulation
+        started = time.monotonic()
+        process.send_signal(signal.SIGINT)  # Ctrl-C again
+        _, err = process.communicate(timeout=60)
+        assert time.monotonic() - started < 30 and "KeyboardInterrupt" in err
+        assert not (tmp_path / "finished").exists()
+        with pytest.raises(ProcessLookupError):
+            os.kill(driver, 0)  # the worker killed its driver (a session of its own) on the way out
+        assert_no_process_left(process.pid)
+    finally:  # a failure leaves no sleeping driver behind
+        for pid, kill in ((driver, os.kill), (process.pid, os.killpg)):
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                kill(pid, signal.SIGKILL)
+
+
+def test_abandoning_a_pool_kills_a_worker_that_does_not_unwind(tmp_path):
+    import concurrent.futures as cf
+    import multiprocessing
+
+    import workerfaults
+    from replication.casestudy.evaluate import _abandon
+
+    marker = tmp_path / "deaf"
+    pool = cf.ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
+    future = pool.submit(workerfaults.deaf_to_sigterm, str(marker), 600.0)
+    deadline = time.monotonic() + 60
+    while not marker.exists() and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert marker.exists()  # the worker ignores SIGTERM now
+    processes = list(pool._processes.values())
+    started = time.monotonic()
+    _abandon(pool, grace=0.5)
+    assert time.monotonic() - started < 20
+    assert [p.exitcode for p in processes] == [-signal.SIGKILL]  # killed after the grace, not left running
+    with pytest.raises(cf.process.BrokenProcessPool):
+        future.result(timeout=20)

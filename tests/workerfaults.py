@@ -9,6 +9,8 @@ tests that ship these objects to a dask cluster pickle this module by value
 import contextlib
 import os
 
+import pytest
+
 
 class DiesOnceWhenArmed:
     """A fitness whose first evaluation after the file ``armed`` appears kills its worker process.
@@ -46,3 +48,40 @@ def pickled_by_value(*modules):
     finally:
         for module in modules:
             cloudpickle.unregister_pickle_by_value(module)
+
+
+#: A stand-in for the SPH driver: records its process id, sleeps, and marks that it finished.
+SLEEPING_DRIVER = (
+    "import os, sys, time; run_dir = sys.argv[2]; "
+    "open(os.path.join(run_dir, 'pid'), 'w').write(str(os.getpid())); "
+    "time.sleep(float(sys.argv[1])); open(os.path.join(run_dir, 'finished'), 'w').close()"
+)
+
+
+def sleeping_simulation(run_dir, seconds):
+    """Wait, as a worker does, for a driver child process that sleeps ``seconds``."""
+    import sys
+
+    from replication.casestudy.sph.process import run_child
+
+    return run_child(
+        run_dir, timeout=None, command=[sys.executable, "-c", SLEEPING_DRIVER, str(seconds)]
+    ).status
+
+
+def assert_no_process_left(pgid):
+    """Nothing of a finished command's process group (its pool, cluster, resource tracker) is left."""
+    with pytest.raises(ProcessLookupError):
+        os.killpg(pgid, 0)  # signal 0: does any process of the group exist?
+
+
+def deaf_to_sigterm(marker, seconds):
+    """A task whose worker ignores SIGTERM (then creates ``marker``) and sleeps: only SIGKILL ends it."""
+    import pathlib
+    import signal
+    import time
+
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    pathlib.Path(marker).touch()
+    time.sleep(seconds)
+    return seconds

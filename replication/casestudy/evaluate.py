@@ -18,6 +18,7 @@ import contextlib
 import gc
 import multiprocessing.resource_tracker
 import os
+import time
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -26,7 +27,7 @@ import numpy as np
 
 from replication.casestudy.dispatch import Dispatcher, Outcome
 from replication.casestudy.ga import GAConfig, points_from_genome
-from replication.casestudy.interrupts import ignore_interrupts, quiet_worker_context
+from replication.casestudy.interrupts import exit_on_terminate, ignore_interrupts, quiet_worker_context
 from replication.errors import DuplicatePointsWarning, InputError
 
 __all__ = [
@@ -145,7 +146,7 @@ def check_executor_options(kind: str, workers: int | None = None, scheduler: str
 
 
 def worker_initializer() -> None:
-    """Process-pool initializer: workers ignore SIGINT and run with one BLAS thread.
+    """Process-pool initializer: workers ignore SIGINT, unwind on SIGTERM, run one BLAS thread.
 
     The parent decides when to stop (see :mod:`.interrupts`); the GA's parallelism is one
     evaluation per worker, so BLAS threads would only compete (see :mod:`replication.threadlimits`).
@@ -153,12 +154,17 @@ def worker_initializer() -> None:
     from replication.threadlimits import limit_worker_blas
 
     ignore_interrupts()
+    exit_on_terminate()
     limit_worker_blas()
 
 
 @contextlib.contextmanager
 def executor(
-    kind: str = "auto", *, workers: int | None = None, scheduler: str | None = None
+    kind: str = "auto",
+    *,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    on_interrupt: Callable[[], None] | None = None,
 ) -> Iterator[cf.Executor]:
     """An executor for fitness evaluations, closed on exit.
 
@@ -172,6 +178,9 @@ def executor(
         number of CPUs).
     scheduler : str, optional
         Address of a running dask scheduler (``tcp://host:8786``); implies dask.
+    on_interrupt : callable, optional
+        Called when Ctrl-C leaves the block of a process pool, before the pool waits for the
+        work under way (an SPH simulation can take minutes): the place to say so.
 
     Raises
     ------
@@ -185,7 +194,10 @@ def executor(
     -----
     Worker processes (pool or local dask cluster) do not take SIGINT, so Ctrl-C in a
     terminal reaches the parent alone, which stops the run between evaluations (see
-    :mod:`.interrupts`); pending evaluations are cancelled on the way out.
+    :mod:`.interrupts`); pending evaluations are cancelled on the way out, and a process
+    pool waits for those under way, so that finished work is kept. A second Ctrl-C during
+    that wait abandons them: the workers are terminated (each kills the simulation it was
+    waiting for, see :func:`.interrupts.exit_on_terminate`).
     """
     check_executor_options(kind, workers, scheduler)
     n = workers or os.cpu_count() or 1
@@ -200,14 +212,56 @@ def executor(
             )
             try:
                 yield pool
+            except KeyboardInterrupt:
+                if on_interrupt is not None:
+                    on_interrupt()
+                raise
             finally:
-                pool.shutdown(wait=True, cancel_futures=True)
+                _shut_down(pool)
                 del pool
     else:
         from replication.casestudy.cluster import dask_executor
 
         with _resource_tracker_stopped(), dask_executor(scheduler, n) as pool:
             yield pool
+
+
+#: Seconds a terminated worker has to unwind (kill its simulation) before it is killed outright.
+ABANDON_GRACE = 5.0
+
+
+def _shut_down(pool: cf.ProcessPoolExecutor) -> None:
+    """Wait for the work under way and close the pool; a Ctrl-C while waiting abandons that work."""
+    try:
+        pool.shutdown(wait=True, cancel_futures=True)
+    except KeyboardInterrupt:
+        _abandon(pool)
+        raise
+
+
+def _abandon(pool: cf.ProcessPoolExecutor, grace: float = ABANDON_GRACE) -> None:
+    """End every worker of ``pool`` for certain, each first killing the simulation it ran.
+
+    SIGTERM makes a worker unwind (:func:`.interrupts.exit_on_terminate`), which kills the
+    driver of its simulation (a session of its own). The pool's worker loop catches that
+    exit, so a worker may then wait for more work: after ``grace`` seconds it is killed.
+    ``shutdown`` is not called again: after an interrupted one, the pool's management thread
+    may have closed its handles; it ends by itself once the workers are gone.
+    """
+    processes = list((getattr(pool, "_processes", None) or {}).values())  # (3.14: terminate_workers())
+    for process in processes:
+        with contextlib.suppress(Exception):
+            process.terminate()
+    deadline = time.monotonic() + grace
+    for process in processes:
+        with contextlib.suppress(Exception):
+            process.join(max(0.0, deadline - time.monotonic()))
+            if process.is_alive():
+                process.kill()
+                process.join()
+    manager = getattr(pool, "_executor_manager_thread", None)
+    if manager is not None:
+        manager.join(grace)
 
 
 @contextlib.contextmanager

@@ -23,6 +23,7 @@ from types import FrameType
 __all__ = [
     "InterruptGuard",
     "caused_by_interrupt",
+    "exit_on_terminate",
     "ignore_interrupts",
     "quiet_spawn_context",
     "quiet_worker_context",
@@ -164,6 +165,22 @@ def sigint_ignored_by_children() -> Iterator[None]:
         yield
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+def exit_on_terminate() -> None:
+    """Worker initializer: SIGTERM raises :class:`SystemExit`, so the worker unwinds.
+
+    Python's default for SIGTERM ends the process at once, skipping every ``finally``; a
+    worker waiting for an SPH simulation's child process would leave that child running
+    (it has a session of its own, see :mod:`.sph.process`). Raising instead runs the
+    ``finally`` that kills the child. The parent terminates workers only to abandon work
+    under way (a second Ctrl-C, :func:`.evaluate.executor`).
+    """
+
+    def _exit(signum: int, frame: FrameType | None) -> None:
+        raise SystemExit(128 + signum)
+
+    signal.signal(signal.SIGTERM, _exit)
 
 
 def ignore_interrupts() -> None:

@@ -32,7 +32,7 @@ from replication.cli.casestudy_sph import (
     sph_fitness,
     write_fitness_record,
 )
-from replication.cli.common import emit_json, positive_int, seed
+from replication.cli.common import emit_json, positive_int, say_simulations_finish, seed
 from replication.cli.outputs import (
     DEFAULT_DIR,
     QUICK_DIR,
@@ -220,7 +220,10 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
     config = plan.config
     action = "resuming" if plan.resume else "after an interruption, resume with"
     print(f"GA run directory: {plan.run_dir} ({action}: {plan.hint})", file=sys.stderr)
-    pool = functools.partial(executor, args.executor, workers=args.workers, scheduler=args.scheduler)
+    on_interrupt = say_simulations_finish if plan.sph is not None else None  # SPH takes minutes
+    pool = functools.partial(
+        executor, args.executor, workers=args.workers, scheduler=args.scheduler, on_interrupt=on_interrupt
+    )
     fitness = sph_fitness(plan, args, workers=_workers(args))
     try:
         write_fitness_record(plan.run_dir, plan.solver)

@@ -219,3 +219,12 @@ def _jsonable(value: Any) -> Any:
 def emit_json(report: dict[str, Any]) -> None:
     """Print one JSON object (NaN becomes null so that strict parsers accept it)."""
     print(json.dumps(_jsonable(report), allow_nan=False))
+
+
+def say_simulations_finish() -> None:
+    """What a first Ctrl-C does to SPH simulations under way (see :func:`.evaluate.executor`)."""
+    print(
+        "stopping: the simulations under way finish into the cache first (Ctrl-C again abandons them)",
+        file=sys.stderr,
+        flush=True,
+    )

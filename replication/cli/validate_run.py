@@ -32,6 +32,7 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
     from replication.casestudy.evaluate import executor
     from replication.casestudy.sph import require_engine
     from replication.casestudy.sph_batch import default_cache_dir
+    from replication.cli.common import say_simulations_finish
     from replication.cli.progress import Progress
     from replication.errors import SimulationError
     from replication.experiments.jet_validation import run_validation
@@ -63,7 +64,9 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
     try:
         kind = "dask" if args.scheduler else args.executor
         serial = kind == "serial"  # one simulation at a time, driven from this process
-        with executor(kind, workers=None if serial else args.workers, scheduler=args.scheduler) as pool:
+        workers = None if serial else args.workers
+        stopping = say_simulations_finish
+        with executor(kind, workers=workers, scheduler=args.scheduler, on_interrupt=stopping) as pool:
             results = run_validation(
                 config, cache_dir=cache, executor=pool, max_parallel=1 if serial else args.workers,
                 ga_run_dir=args.ga_run_dir, ga_pool_factory=ga_pool, retry_failed=args.retry_failed,
