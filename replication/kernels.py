@@ -10,8 +10,14 @@ Compiling everything takes about 35 s of one core in a fresh environment (measur
 project's 2-core machine): the triangulator's kernels about 19 s, the water-jet model's
 about 16 s. numba compiles under the GIL, so ``warm_up(processes=2)`` compiles the jet
 model's kernels in a second Python process, into the same on-disk cache, while this process
-compiles the rest, then loads them from the cache (about 23 s in all). The helper starts only
-when the first kernels had to be compiled: with a warm cache everything only loads (1 s).
+compiles the rest, then loads them from the cache (about 21-23 s in all). The helper starts
+only when the first kernels had to be compiled: with a warm cache everything only loads (1 s).
+
+The two groups share only kernels that both compile with the same argument types (the exact
+predicates and the point location, checked with numba's compile events), so both processes
+write the same cache entry. Keep it so: numba's cache index is not locked, and two processes
+compiling one kernel for different argument types at the same moment could mix up its
+entries.
 """
 
 from __future__ import annotations
