@@ -22,8 +22,10 @@ entries.
 
 from __future__ import annotations
 
+import contextlib
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 __all__ = ["release_threads", "warm_up"]
@@ -43,16 +45,11 @@ def warm_up(*, processes: int = 1) -> None:
         process at the same time (see the module notes); if the helper fails, whatever it
         did not cache is compiled here, so the result is the same either way.
     """
-    import warnings
-
     from numba.core import event
 
-    from replication.errors import DuplicatePointsWarning
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DuplicatePointsWarning)
+    with _duplicates_expected():
         with event.install_recorder("numba:compile") as compiled:
-            bucket = _shared()  # first, so that the two processes never compile the same kernel
+            bucket = _shared()  # first: both groups would otherwise compile these kernels
         cold = bool(compiled.buffer)  # a fresh cache (or changed sources): worth a second process
         helper = _start_helper() if processes > 1 and cold else None
         try:
@@ -67,6 +64,18 @@ def warm_up(*, processes: int = 1) -> None:
                 _stop(helper)
             raise
         _jet(bucket)  # loads what the helper cached; compiles whatever it did not
+
+
+@contextlib.contextmanager
+def _duplicates_expected() -> Iterator[None]:
+    """The warm-up's lattice clouds merge points on purpose: no DuplicatePointsWarning."""
+    import warnings
+
+    from replication.errors import DuplicatePointsWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DuplicatePointsWarning)
+        yield
 
 
 def _shared():
@@ -115,12 +124,7 @@ def _jet(bucket) -> None:
 
 def _helper_main() -> None:
     """The helper process of ``warm_up(processes=2)``: the jet kernels, into the cache."""
-    import warnings
-
-    from replication.errors import DuplicatePointsWarning
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DuplicatePointsWarning)
+    with _duplicates_expected():
         _jet(_shared())
 
 

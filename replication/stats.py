@@ -117,7 +117,8 @@ def _wilcoxon(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
     nonzero = d != 0
     magnitudes = np.abs(d[nonzero])
     ties = np.unique(magnitudes).size < magnitudes.size
-    if d.size > _PERMUTATION_MAX_N or not (ties or not nonzero.all()):
+    zeros = magnitudes.size < d.size
+    if d.size > _PERMUTATION_MAX_N or not (ties or zeros):
         w = stats.wilcoxon(a, b)
         return float(w.statistic), float(w.pvalue)
     ranks = np.zeros_like(d)

@@ -65,8 +65,9 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
         kind = "dask" if args.scheduler else args.executor
         serial = kind == "serial"  # one simulation at a time, driven from this process
         workers = None if serial else args.workers
-        stopping = say_simulations_finish
-        with executor(kind, workers=workers, scheduler=args.scheduler, on_interrupt=stopping) as pool:
+        with executor(
+            kind, workers=workers, scheduler=args.scheduler, on_interrupt=say_simulations_finish
+        ) as pool:
             results = run_validation(
                 config, cache_dir=cache, executor=pool, max_parallel=1 if serial else args.workers,
                 ga_run_dir=args.ga_run_dir, ga_pool_factory=ga_pool, retry_failed=args.retry_failed,
