@@ -6,16 +6,19 @@ want that cost up front, in one place (the test suite's session start, ``replica
 reproduce``, a benchmark setup), call :func:`warm_up`: it runs each kernel once on a tiny
 input with the argument types the package uses. Importing this module compiles nothing.
 
-Compiling everything takes about 35 s of one core in a fresh environment (measured on this
-project's 2-core machine): the triangulator's kernels about 19 s, the water-jet model's
-about 16 s. numba compiles under the GIL, so ``warm_up(processes=2)`` compiles the jet
-model's kernels in a second Python process, into the same on-disk cache, while this process
-compiles the rest, then loads them from the cache (about 21-23 s in all). The helper starts
-only when the first kernels had to be compiled: with a warm cache everything only loads (1 s).
+Compiling everything takes about 37 s of one core in a fresh environment (measured on this
+project's 2-core machine): the shared kernels 2 s, the triangulator and NURBS gridding about
+16 s, the point location and interpolation about 3.5 s, the water-jet model about 15 s.
+numba compiles under the GIL, so ``warm_up(processes=2)`` compiles the interpolation and jet
+kernels in a second Python process, into the same on-disk cache, while this process compiles
+the triangulator and gridding, then loads the helper's kernels from the cache (about 20 s in
+all; 22 s when the helper compiled only the jet kernels). The helper starts only when the
+first kernels had to be compiled: with a warm cache everything only loads (1 s).
 
 The two groups share only kernels that both compile with the same argument types (the exact
-predicates and the point location, checked with numba's compile events), so both processes
-write the same cache entry. Keep it so: numba's cache index is not locked, and two processes
+predicates, the point location and the nearest-vertex walk of the gridding's fill outside the
+hull; checked with numba's compile events, in both orders), so both processes write the same
+cache entry. Keep it so: numba's cache index is not locked, and two processes
 compiling one kernel for different argument types at the same moment could mix up its
 entries.
 """
@@ -63,7 +66,7 @@ def warm_up(*, processes: int = 1) -> None:
             if helper is not None:
                 _stop(helper)
             raise
-        _jet(bucket)  # loads what the helper cached; compiles whatever it did not
+        _helper_group(bucket)  # loads what the helper cached; compiles whatever it did not
 
 
 @contextlib.contextmanager
@@ -88,12 +91,11 @@ def _shared():
 
 
 def _triangulation() -> None:
-    """The sweep-hull triangulator, the NURBS gridding and the interpolation kernels."""
+    """The sweep-hull triangulator and the NURBS gridding."""
     import numpy as np
 
     from replication.surfaces import _raster, _triangulate, adt, random_cloud
     from replication.surfaces._threads import frozen
-    from replication.surfaces.interpolate import interpolate_linear, nearest_vertices
     from replication.surfaces.nurbs import fit_nurbs
 
     cloud = random_cloud(64, rng=0)
@@ -106,8 +108,18 @@ def _triangulation() -> None:
     owners = tuple(np.full((2, 2), -1, dtype=np.int32) for _ in range(_raster._RUNS))
     _raster._combine(owners, tuple(np.zeros((2, 2)) for _ in range(_raster._RUNS)), 0, 2)
     fit_nurbs(cloud, evaluator="fast", triangulation=surface, tessellation=(4, 4))
+
+
+def _interpolation(surface) -> None:
+    """The point location and interpolation kernels (the NURBS gridding's nearest fill too)."""
+    import numpy as np
+
+    from replication.surfaces.interpolate import fill_nearest, interpolate_linear, nearest_vertices
+
     uv = surface.projected()
     depth = surface.points[:, surface.depth_axis]
+    far = uv.max(axis=0, keepdims=True) + 1.0  # outside the hull, as a grid node of the gridding
+    fill_nearest(uv, surface.triangles, surface.neighbors, far, np.zeros(1, np.int32))
     interpolate_linear(uv, surface.triangles, depth, uv[:3] * 2, neighbors=surface.neighbors,
                        nearest_outside=True)  # fmt: skip
     interpolate_linear(uv, surface.triangles, depth, uv[:3], convex=False)
@@ -122,10 +134,17 @@ def _jet(bucket) -> None:
     jet_force(bucket.points, bucket.triangles)
 
 
+def _helper_group(bucket) -> None:
+    """What the helper of ``warm_up(processes=2)`` compiles: the interpolation kernels first
+    (this process's NURBS gridding loads two of them near its end), then the jet model's."""
+    _interpolation(bucket)
+    _jet(bucket)
+
+
 def _helper_main() -> None:
-    """The helper process of ``warm_up(processes=2)``: the jet kernels, into the cache."""
+    """The helper process of ``warm_up(processes=2)``: its group of kernels, into the cache."""
     with _duplicates_expected():
-        _jet(_shared())
+        _helper_group(_shared())
 
 
 def _start_helper() -> subprocess.Popen | None:
