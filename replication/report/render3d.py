@@ -30,10 +30,13 @@ def _pyvista_views(views: dict[Path, Sequence[tuple[str, Mesh]]], size: tuple[in
 
     from replication.surfaces.adt import triangle_polydata
 
-    for path, meshes in views.items():
-        plotter = pv.Plotter(off_screen=True, window_size=size)
-        try:
-            plotter.set_background("white")
+    # one plotter (one off-screen context) for every view: a new context per view cost about
+    # as much as the render itself
+    plotter = pv.Plotter(off_screen=True, window_size=size)
+    try:
+        plotter.set_background("white")
+        for path, meshes in views.items():
+            plotter.clear_actors()
             for label, (points, triangles) in meshes:
                 opacity = 0.75 if len(meshes) > 1 and label == "NURBS" else 1.0
                 plotter.add_mesh(
@@ -46,10 +49,11 @@ def _pyvista_views(views: dict[Path, Sequence[tuple[str, Mesh]]], size: tuple[in
                 )
             plotter.view_vector((1.0, -1.4, 1.1), viewup=(0, 0, 1))
             plotter.camera.zoom(1.25)
+            plotter.render()  # a screenshot renders by itself only the first time
             with atomic_path(path) as tmp:
                 plotter.screenshot(str(tmp))
-        finally:
-            plotter.close()
+    finally:
+        plotter.close()
 
 
 def _matplotlib_views(views: dict[Path, Sequence[tuple[str, Mesh]]], size: tuple[int, int]) -> None:
