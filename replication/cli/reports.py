@@ -19,12 +19,13 @@ from replication.kernels import release_threads, warm_up
 RENDERED = ("table1.md", "sph.md", "casestudy.md", "performance.md", "index.md")
 
 
-def _run_table1(out: Path, quick: bool, command: str) -> Path:
+def _run_table1(out: Path, quick: bool, command: str, workers: int | None = None) -> Path:
     from replication.experiments.table1 import Table1Config, run_table1
     from replication.report.table1 import render_table1, save_table1_data
 
     config = Table1Config.quick_config() if quick else Table1Config()
-    results = run_table1(config, progress=progress_bar, command=command)
+    workers = workers or os.cpu_count() or 1
+    results = run_table1(config, progress=progress_bar, command=command, workers=workers)
     save_table1_data(results, out)
     return render_table1(out)
 
@@ -38,7 +39,7 @@ def _said(written: list[Path], out: Path) -> None:
 def _cmd_table1(args: argparse.Namespace) -> int:
     out = planned_output_dir(args)
     start = time.perf_counter()
-    path = _run_table1(out, args.quick, args.invocation)
+    path = _run_table1(out, args.quick, args.invocation, args.workers)
     written = finish_reports(out)
     print(f"wrote {path} ({time.perf_counter() - start:.1f} s; data in {out / 'data'})")
     _said(written, out)
@@ -139,7 +140,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     out = planned_output_dir(args)
     ga_args = argparse.Namespace(
         quick=args.quick, runs=None, generations=None, population=None, seed=None, run_dir=None,
-        resume=False, executor="auto", workers=None, scheduler=None, invocation=args.invocation,
+        resume=False, executor="auto", workers=args.workers, scheduler=None, invocation=args.invocation,
         output_dir=str(out), json=False,
     )  # fmt: skip
     plan = plan_casestudy(ga_args)  # checks the GA's run directory before the first stage
@@ -153,7 +154,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     for name, what in STAGES:
         t0 = time.perf_counter()
         if name == "table1":
-            path = _run_table1(out, args.quick, args.invocation)
+            path = _run_table1(out, args.quick, args.invocation, args.workers)
             release_threads()  # the case study's workers can then be forked, not spawned
         elif name == "sph":  # optional: needs the engine (pip install ".[sph]")
             from replication.casestudy.sph import INSTALL_HINT, engine_available
@@ -205,6 +206,15 @@ def register(sub: argparse._SubParsersAction) -> None:
             "--output-dir",
             metavar="DIR",
             help=f"where reports, figures and data go (default {DEFAULT_DIR}/, or {QUICK_DIR}/ with --quick)",
+        )
+        p.add_argument(
+            "--workers",
+            type=positive_int,
+            metavar="N",
+            help="worker processes for the untimed work (Table 1's paired statistics and storage sizes"
+            + ("; the case study's fitness evaluations" if name == "reproduce" else "")
+            + "); Table 1's timings run alone, in the command's own process, and no result depends "
+            "on N (default: the number of CPUs)",
         )
         p.set_defaults(func=func)
     p = sub.add_parser(

@@ -37,12 +37,16 @@ scanned clouds are).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Iterable
+from concurrent.futures import Executor
+from functools import partial
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from replication.errors import DuplicatePointsWarning
 from replication.experiments.timing import summarize
 from replication.io.nurbs import smesh_text
 from replication.io.vtk import legacy_vtk_text
@@ -56,6 +60,7 @@ __all__ = [
     "COORDINATES",
     "storage_row",
     "storage_monte_carlo",
+    "storage_sizes",
     "summarize_storage",
 ]
 
@@ -104,6 +109,22 @@ def storage_row(points: np.ndarray, triangles: np.ndarray, patch: NurbsPatch) ->
     return row
 
 
+def storage_sizes(
+    clouds: dict[str, Callable[[int, int], np.ndarray]], degree: int, job: tuple[int, int, str]
+) -> dict[str, Any]:
+    """The row of :func:`storage_monte_carlo` for one ``job = (n, replicate, coordinates)``.
+
+    A function of its arguments alone, so that it runs the same in any process.
+    """
+    n, k, kind = job
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DuplicatePointsWarning)  # a worker may be a fresh process
+        cloud = clouds[kind](n, k)
+        surface = adt(cloud)
+        nurbs = fit_nurbs(cloud, degree=degree, tessellation=None, triangulation=surface)
+    return {"n": n, "replicate": k, "coordinates": kind, **storage_row(surface.points, surface.triangles, nurbs.patch)}
+
+
 def storage_monte_carlo(
     ns: Iterable[int],
     replicates: int,
@@ -111,6 +132,8 @@ def storage_monte_carlo(
     *,
     degree: int = 2,
     progress: Callable[[Iterable[Any], str, int], Iterable[Any]] | None = None,
+    executor: Executor | None = None,
+    chunksize: int = 1,
 ) -> pd.DataFrame:
     """Sizes of both surfaces in every family for ``replicates`` clouds per n and kind.
 
@@ -121,11 +144,17 @@ def storage_monte_carlo(
     replicates : int
         Clouds per n and kind of coordinates (replicates 1..replicates).
     clouds : dict
-        Kind of coordinates -> ``cloud(n, replicate)`` returning an (n, 3) array.
+        Kind of coordinates -> ``cloud(n, replicate)`` returning an (n, 3) array (picklable
+        when ``executor`` is a process pool).
     degree : int
         NURBS degree.
     progress : callable, optional
         ``progress(iterable, description, total)``.
+    executor : concurrent.futures.Executor, optional
+        Where the clouds are measured (default: here, one after another); the result is the
+        same either way.
+    chunksize : int
+        Clouds per task of a process pool.
 
     Returns
     -------
@@ -137,16 +166,13 @@ def storage_monte_carlo(
     Paper section 5, item 1 (storage), and Table 1's file sizes.
     """
     jobs = [(n, k, kind) for k in range(1, replicates + 1) for n in ns for kind in clouds]
+    measure = partial(storage_sizes, clouds, degree)
+    rows: Iterable[dict[str, Any]] = (
+        map(measure, jobs) if executor is None else executor.map(measure, jobs, chunksize=chunksize)
+    )
     if progress is not None:
-        jobs = progress(jobs, f"storage in {len(FAMILIES)} families", len(jobs))  # type: ignore[assignment]
-    rows = []
-    for n, k, kind in jobs:
-        cloud = clouds[kind](n, k)
-        surface = adt(cloud)
-        nurbs = fit_nurbs(cloud, degree=degree, tessellation=None, triangulation=surface)
-        rows.append({"n": n, "replicate": k, "coordinates": kind,
-                     **storage_row(surface.points, surface.triangles, nurbs.patch)})  # fmt: skip
-    frame = pd.DataFrame(rows)
+        rows = progress(rows, f"storage in {len(FAMILIES)} families", len(jobs))
+    frame = pd.DataFrame(list(rows))
     return frame.sort_values(["coordinates", "n", "replicate"], kind="stable", ignore_index=True)
 
 

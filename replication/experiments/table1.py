@@ -33,6 +33,7 @@ import tempfile
 import time
 import warnings
 from collections.abc import Callable, Iterable
+from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field
 from functools import partial
 from pathlib import Path
@@ -52,7 +53,15 @@ from replication.provenance import provenance
 from replication.surfaces import Box, adt, random_cloud
 from replication.surfaces.nurbs import NurbsSurface, fit_nurbs
 
-__all__ = ["Table1Config", "Table1Results", "run_table1", "table1_cloud", "continuous_cloud", "file_sizes"]
+__all__ = [
+    "Table1Config",
+    "Table1Results",
+    "run_table1",
+    "table1_cloud",
+    "continuous_cloud",
+    "file_sizes",
+    "monte_carlo_statistics",
+]
 
 Progress = Callable[[Iterable[Any], str, int], Iterable[Any]]
 #: Third seed word of the scale-sweep clouds (continuous, so that points stay distinct).
@@ -301,7 +310,8 @@ def _timed(func: Callable[..., Any], *args: Any, **kwargs: Any) -> tuple[Any, fl
     return out, time.perf_counter() - start
 
 
-def _monte_carlo(config: Table1Config, progress: Progress) -> pd.DataFrame:
+def _monte_carlo_timings(config: Table1Config, progress: Progress) -> list[dict[str, Any]]:
+    """Sizes and build times of every Monte Carlo cloud, timed in this process alone."""
     kw = {"degree": config.degree, "tessellation": config.tessellation}
     fit_nurbs(table1_cloud(config, 50, 10**6), **kw)  # warm-up: imports, JIT caches
     rows = []
@@ -314,20 +324,50 @@ def _monte_carlo(config: Table1Config, progress: Progress) -> pd.DataFrame:
         nurbs, fast_s = _timed(fit_nurbs, cloud, evaluator="fast", **kw)
         adt_bytes = len(legacy_vtk_text(surface.points, surface.triangles).encode())
         nurbs_bytes = len(smesh_text(nurbs.patch).encode())
-        row = {
+        rows.append({
             "n": n, "replicate": k, "vertices": surface.n_vertices, "adt_bytes": adt_bytes,
             "nurbs_bytes": nurbs_bytes, "size_ratio": adt_bytes / nurbs_bytes,
             "size_difference": nurbs_bytes - adt_bytes, "adt_s": adt_s, "nurbs_geomdl_s": geomdl_s,
             "nurbs_fast_s": fast_s, "time_ratio_geomdl": geomdl_s / adt_s, "time_ratio_fast": fast_s / adt_s,
             "time_difference_geomdl": geomdl_s - adt_s,
-        }  # fmt: skip
+        })  # fmt: skip
+    return rows
+
+
+def monte_carlo_statistics(config: Table1Config, job: tuple[int, int]) -> dict[str, Any]:
+    """The paired statistics of Monte Carlo cloud ``job = (n, replicate)``, both pairings.
+
+    A function of the configuration and the job alone, so that it runs the same in any
+    process (the experiment hands the clouds to worker processes).
+    """
+    n, k = job
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DuplicatePointsWarning)  # a worker may be a fresh process
         result = compare(
-            cloud, degree=config.degree, margin_fraction=config.margin_fraction, alpha=config.alpha
-        )
-        for name, pairs in result.pairings.items():
-            prefix = "a_" if name == "nurbs-samples" else "b_"
-            row.update(_stat_columns(prefix, result.statistics[name], pairs))
-        rows.append(row)
+            table1_cloud(config, n, k), degree=config.degree, margin_fraction=config.margin_fraction,
+            alpha=config.alpha,
+        )  # fmt: skip
+    row: dict[str, Any] = {}
+    for name, pairs in result.pairings.items():
+        prefix = "a_" if name == "nurbs-samples" else "b_"
+        row.update(_stat_columns(prefix, result.statistics[name], pairs))
+    return row
+
+
+#: Monte Carlo clouds (or storage clouds) handed to a worker process at a time: about 0.3 s
+#: (0.1 s) of work per task, so that the pool's overhead stays small.
+MC_CHUNK = 25
+STORAGE_CHUNK = 40
+
+
+def _monte_carlo(config: Table1Config, progress: Progress, pool: Executor) -> pd.DataFrame:
+    """Every Monte Carlo cloud: sizes and times (timed here, alone), then the paired
+    statistics (untimed: on ``pool``, results in the same order)."""
+    rows = _monte_carlo_timings(config, progress)
+    jobs = [(row["n"], row["replicate"]) for row in rows]
+    stats = pool.map(partial(monte_carlo_statistics, config), jobs, chunksize=MC_CHUNK)
+    for row, extra in zip(rows, progress(stats, "paired statistics of the Monte Carlo clouds", len(jobs))):
+        row.update(extra)
     return pd.DataFrame(rows).sort_values(["n", "replicate"], ignore_index=True)
 
 
@@ -440,7 +480,11 @@ def summarize_scale(raw: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
 
 
 def run_table1(
-    config: Table1Config = Table1Config(), *, progress: Progress | None = None, command: str | None = None
+    config: Table1Config = Table1Config(),
+    *,
+    progress: Progress | None = None,
+    command: str | None = None,
+    workers: int = 1,
 ) -> Table1Results:
     """Run the whole Table 1 / Fig. 6 experiment.
 
@@ -452,6 +496,10 @@ def run_table1(
         progress bar); default: no progress reporting.
     command : str, optional
         The invocation recorded in the provenance (default: the process's command line).
+    workers : int
+        Processes for the untimed work: the paired statistics of the Monte Carlo clouds and
+        the storage sizes (a local process pool when > 1). Every timing runs in this process
+        with no worker alive, and the results do not depend on ``workers``.
 
     Returns
     -------
@@ -461,6 +509,11 @@ def run_table1(
     -----
     Paper section 4 (Table 1, Fig. 6) and section 5, items 1 and 2.
     """
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise InputError(f"workers must be a positive integer, got {workers!r}")
+    from replication.casestudy.evaluate import executor  # the case study's process pool, reused
+    from replication.kernels import release_threads
+
     progress = progress or _no_progress
     started = time.perf_counter()
     stage_seconds = {}
@@ -471,16 +524,22 @@ def run_table1(
         t0 = time.perf_counter()
         single = _single_sample(config, workdir, progress)
         stage_seconds["single_sample"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        mc_raw = _monte_carlo(config, progress)
-        stage_seconds["monte_carlo"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        kinds = {"lattice": partial(table1_cloud, config)} if config.step else {}
-        kinds["continuous"] = partial(continuous_cloud, config)
-        storage_raw = storage_monte_carlo(
-            config.ns, config.mc_seeds, kinds, degree=config.degree, progress=progress
-        )
-        stage_seconds["storage"] = time.perf_counter() - t0
+        # the untimed work (statistics, storage sizes) on worker processes, after the timings
+        # and before the scale sweep's: no timing ever runs beside them. With the kernels'
+        # idle threads stopped, the workers are forked (milliseconds), not spawned (a second)
+        release_threads()
+        with executor("process", workers=workers) if workers > 1 else executor("serial") as pool:
+            t0 = time.perf_counter()
+            mc_raw = _monte_carlo(config, progress, pool)
+            stage_seconds["monte_carlo"] = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            kinds = {"lattice": partial(table1_cloud, config)} if config.step else {}
+            kinds["continuous"] = partial(continuous_cloud, config)
+            storage_raw = storage_monte_carlo(
+                config.ns, config.mc_seeds, kinds, degree=config.degree, progress=progress, executor=pool,
+                chunksize=STORAGE_CHUNK,
+            )  # fmt: skip
+            stage_seconds["storage"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         scale_raw = _scale_sweep(config, progress, workdir)
         stage_seconds["scale_sweep"] = time.perf_counter() - t0
@@ -499,6 +558,7 @@ def run_table1(
             f"continuous cloud default_rng([{config.seed}, n, {SCALE_STREAM}])"
         ),
         stage_seconds=stage_seconds,
+        workers=int(workers),  # processes of the untimed stages (statistics, storage)
         run_seconds=time.perf_counter() - started,
     )
     return Table1Results(

@@ -78,4 +78,6 @@ def provenance_section(record: dict[str, Any]) -> str:
             else ""
         ),
     ]
+    if record.get("workers"):
+        lines.append(f"- Worker processes for the untimed work: {record['workers']} (timings ran alone)")
     return "\n".join(lines)
