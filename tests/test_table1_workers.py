@@ -22,20 +22,23 @@ def _no_progress(items, description, total):
     return items
 
 
+def _two_workers():
+    release_threads()  # forked workers, as in the command
+    return executor("process", workers=2)
+
+
 @pytest.fixture(scope="module")
 def pool():
-    release_threads()  # forked workers, as in the command
-    with executor("process", workers=2) as p:
+    with _two_workers() as p:
         yield p
 
 
 @pytest.mark.filterwarnings("ignore::replication.errors.DuplicatePointsWarning")  # lattice merges (run_table1 too)
-def test_monte_carlo_statistics_on_workers_match_one_process(pool):
+def test_monte_carlo_statistics_on_workers_match_one_process():
     timing_columns = {"adt_s", "nurbs_geomdl_s", "nurbs_fast_s", "time_ratio_geomdl", "time_ratio_fast",
                       "time_difference_geomdl"}  # fmt: skip
-    with executor("serial") as serial:
-        here = table1._monte_carlo(CONFIG, _no_progress, serial)
-    there = table1._monte_carlo(CONFIG, _no_progress, pool)
+    here = table1._monte_carlo(CONFIG, _no_progress, lambda: executor("serial"))
+    there = table1._monte_carlo(CONFIG, _no_progress, _two_workers)
     assert len(here) == len(CONFIG.ns) * CONFIG.mc_seeds
     assert list(here.columns) == list(there.columns)
     assert {"a_t_p", "b_wilcoxon_p", "a_equivalent", "b_rms_pct"} <= set(here.columns)
@@ -53,6 +56,23 @@ def test_storage_sizes_on_workers_match_one_process(pool):
     there = storage_monte_carlo(CONFIG.ns, 3, kinds, executor=pool, chunksize=4)
     assert len(here) == len(CONFIG.ns) * 3 * 2
     pd.testing.assert_frame_equal(here, there)
+
+
+def test_scale_file_sizes_on_workers_match_one_process(tmp_path):
+    config = dataclasses.replace(CONFIG, scale_ns=(1_000, 3_000, 10_000), scale_max_files=3_000,
+                                 scale_max_fast=1_000, scale_repeats=1)  # fmt: skip
+    here = table1._scale_sweep(config, _no_progress, tmp_path, lambda: executor("serial"))
+    there = table1._scale_sweep(config, _no_progress, tmp_path, _two_workers)
+    files = here[here["bytes"].notna()]
+    assert list(zip(files["n"], files["method"])) == [
+        (1_000, "ADT file (.vtp)"), (1_000, "ADT file (.vtk)"), (1_000, "NURBS file (.smesh)"),
+        (3_000, "ADT file (.vtp)"), (3_000, "ADT file (.vtk)"),
+    ]  # fmt: skip
+    assert list(here.columns) == list(there.columns) and list(here["method"]) == list(there["method"])
+    pd.testing.assert_frame_equal(files, there[there["bytes"].notna()])
+    assert list(tmp_path.iterdir()) == []  # the .vtp files measured are removed
+    with pytest.raises(ValueError, match="unknown scale-sweep file"):
+        table1.scale_file_size(config, str(tmp_path), (1_000, "PLY"))
 
 
 def test_a_failing_cloud_fails_the_run_with_its_own_error(pool):

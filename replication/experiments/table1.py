@@ -21,8 +21,13 @@ experiment:
   trend with n;
 * measures the storage of both surfaces of every Monte Carlo cloud in four representation
   families, for lattice clouds and for continuous clouds in the same box (:mod:`.storage`);
-* sweeps n from 1e3 to 1e6 (continuous clouds, so that points stay distinct) and fits growth
+* sweeps n from 1e3 to 1e7 (continuous clouds, so that points stay distinct) and fits growth
   exponents.
+
+Every timing runs in this process alone. The untimed work that follows a stage's timings
+(the paired statistics, the storage sizes, the scale sweep's file sizes) may run on worker
+processes (``run_table1(workers=...)``); each item is a function of the configuration and its
+cloud's seed, so the results do not depend on where it ran.
 
 Results are DataFrames (raw and summarised); nothing here writes a result file.
 """
@@ -33,7 +38,6 @@ import tempfile
 import time
 import warnings
 from collections.abc import Callable, Iterable
-from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field
 from functools import partial
 from pathlib import Path
@@ -360,14 +364,15 @@ MC_CHUNK = 25
 STORAGE_CHUNK = 40
 
 
-def _monte_carlo(config: Table1Config, progress: Progress, pool: Executor) -> pd.DataFrame:
+def _monte_carlo(config: Table1Config, progress: Progress, workers: Callable[[], Any]) -> pd.DataFrame:
     """Every Monte Carlo cloud: sizes and times (timed here, alone), then the paired
-    statistics (untimed: on ``pool``, results in the same order)."""
+    statistics (untimed: on the executor ``workers()`` opens, results in the same order)."""
     rows = _monte_carlo_timings(config, progress)
     jobs = [(row["n"], row["replicate"]) for row in rows]
-    stats = pool.map(partial(monte_carlo_statistics, config), jobs, chunksize=MC_CHUNK)
-    for row, extra in zip(rows, progress(stats, "paired statistics of the Monte Carlo clouds", len(jobs))):
-        row.update(extra)
+    with workers() as pool:
+        stats = pool.map(partial(monte_carlo_statistics, config), jobs, chunksize=MC_CHUNK)
+        for row, extra in zip(rows, progress(stats, "paired statistics of the Monte Carlo clouds", len(jobs))):
+            row.update(extra)
     return pd.DataFrame(rows).sort_values(["n", "replicate"], ignore_index=True)
 
 
@@ -421,12 +426,46 @@ def summarize_montecarlo(raw: pd.DataFrame, alpha: float = 0.05) -> pd.DataFrame
     return pd.DataFrame(rows)
 
 
-def _scale_sweep(config: Table1Config, progress: Progress, workdir: Path) -> pd.DataFrame:
-    rows = []
-    box = Box.from_bounds(config.box)
+def _scale_cloud(config: Table1Config, n: int) -> np.ndarray:
+    """The scale sweep's continuous cloud of ``n`` points."""
+    return random_cloud(n, Box.from_bounds(config.box), rng=np.random.default_rng([config.seed, n, SCALE_STREAM]))
+
+
+#: The file sizes of the scale sweep, in the order of its data (see :func:`scale_file_size`).
+SCALE_FILES = ("ADT file (.vtp)", "ADT file (.vtk)", "NURBS file (.smesh)")
+
+
+def scale_file_size(config: Table1Config, workdir: str, job: tuple[int, str]) -> dict[str, Any]:
+    """The size in bytes of one file of the scale sweep, ``job = (n, method)`` (untimed).
+
+    A function of its arguments alone, so that it runs the same in any process.
+    """
+    n, method = job
+    cloud = _scale_cloud(config, n)
+    surface = adt(cloud)
+    if method == SCALE_FILES[0]:
+        path = Path(workdir) / f"scale-{n}.vtp"
+        size = write_vtp(surface, path)
+        path.unlink()
+    elif method == SCALE_FILES[1]:
+        size = len(legacy_vtk_text(surface.points, surface.triangles).encode())
+    elif method == SCALE_FILES[2]:
+        nurbs = fit_nurbs(cloud, tessellation=None, triangulation=surface)
+        size = len(smesh_text(nurbs.patch).encode())
+    else:
+        raise ValueError(f"unknown scale-sweep file {method!r}; choose one of {SCALE_FILES}")
+    return {"n": n, "method": method, "bytes": size}
+
+
+def _scale_sweep(
+    config: Table1Config, progress: Progress, workdir: Path, workers: Callable[[], Any]
+) -> pd.DataFrame:
+    """Build times up to 1e7 points (timed here, alone), then the file sizes up to
+    ``config.scale_max_files`` (untimed: on the executor ``workers()`` opens)."""
+    timings: dict[int, list[dict[str, Any]]] = {}
     jobs = [n for n in config.scale_ns]
     for n in progress(jobs, "scale sweep", len(jobs)):
-        cloud = random_cloud(n, box, rng=np.random.default_rng([config.seed, n, SCALE_STREAM]))
+        cloud = _scale_cloud(config, n)
         methods: dict[str, Callable[[], Any]] = {"ADT (sweephull)": partial(adt, cloud)}
         if n <= config.scale_max_scipy:
             methods["ADT (scipy Qhull)"] = partial(adt, cloud, backend="scipy")
@@ -436,19 +475,22 @@ def _scale_sweep(config: Table1Config, progress: Progress, workdir: Path) -> pd.
         if n <= config.scale_max_geomdl:
             methods["NURBS (geomdl)"] = partial(fit_nurbs, cloud, evaluator="geomdl", **kw)
         timing = interleaved(methods, repeats=config.scale_repeats, warmup=1)
-        for r in timing.itertuples():
-            rows.append({"n": n, "method": r.task, "repeat": r.repeat, "seconds": r.seconds})
-        if n > config.scale_max_files:
-            continue
-        surface = adt(cloud)
-        rows.append({"n": n, "method": "ADT file (.vtp)", "bytes": write_vtp(surface, workdir / "s.vtp")})
-        rows.append({"n": n, "method": "ADT file (.vtk)",
-                     "bytes": len(legacy_vtk_text(surface.points, surface.triangles).encode())})  # fmt: skip
-        if n <= config.scale_max_fast:
-            nurbs = fit_nurbs(cloud, tessellation=None, triangulation=surface)
-            rows.append(
-                {"n": n, "method": "NURBS file (.smesh)", "bytes": len(smesh_text(nurbs.patch).encode())}
-            )
+        timings[n] = [{"n": n, "method": r.task, "repeat": r.repeat, "seconds": r.seconds}
+                      for r in timing.itertuples()]  # fmt: skip
+        del cloud, methods
+    files = [(n, method) for n in jobs if n <= config.scale_max_files
+             for method in SCALE_FILES if method != SCALE_FILES[2] or n <= config.scale_max_fast]  # fmt: skip
+    sizes: dict[int, list[dict[str, Any]]] = {n: [] for n in jobs}
+    with workers() as pool:
+        # largest first, so that the longest jobs do not start last
+        order = sorted(files, key=lambda job: -job[0])
+        measured = pool.map(partial(scale_file_size, config, str(workdir)), order)
+        for job, row in zip(order, progress(measured, "scale sweep: file sizes", len(order))):
+            sizes[job[0]].append(row)
+    rows = []
+    for n in jobs:
+        rows += timings[n]
+        rows += sorted(sizes[n], key=lambda row: SCALE_FILES.index(row["method"]))
     return pd.DataFrame(rows)
 
 
@@ -497,9 +539,10 @@ def run_table1(
     command : str, optional
         The invocation recorded in the provenance (default: the process's command line).
     workers : int
-        Processes for the untimed work: the paired statistics of the Monte Carlo clouds and
-        the storage sizes (a local process pool when > 1). Every timing runs in this process
-        with no worker alive, and the results do not depend on ``workers``.
+        Processes for the untimed work: the paired statistics of the Monte Carlo clouds, the
+        storage sizes and the scale sweep's file sizes (a local process pool when > 1, opened
+        after the timings each follows). Every timing runs in this process with no worker
+        alive, and the results do not depend on ``workers``.
 
     Returns
     -------
@@ -524,24 +567,26 @@ def run_table1(
         t0 = time.perf_counter()
         single = _single_sample(config, workdir, progress)
         stage_seconds["single_sample"] = time.perf_counter() - t0
-        # the untimed work (statistics, storage sizes) on worker processes, after the timings
-        # and before the scale sweep's: no timing ever runs beside them. With the kernels'
-        # idle threads stopped, the workers are forked (milliseconds), not spawned (a second)
-        release_threads()
-        with executor("process", workers=workers) if workers > 1 else executor("serial") as pool:
-            t0 = time.perf_counter()
-            mc_raw = _monte_carlo(config, progress, pool)
-            stage_seconds["monte_carlo"] = time.perf_counter() - t0
-            t0 = time.perf_counter()
-            kinds = {"lattice": partial(table1_cloud, config)} if config.step else {}
-            kinds["continuous"] = partial(continuous_cloud, config)
-            storage_raw = storage_monte_carlo(
-                config.ns, config.mc_seeds, kinds, degree=config.degree, progress=progress, executor=pool,
-                chunksize=STORAGE_CHUNK,
-            )  # fmt: skip
-            stage_seconds["storage"] = time.perf_counter() - t0
+        # the untimed work (statistics, storage and file sizes) on worker processes, each pool
+        # opened after the timings it follows: no timing ever runs beside a worker
+        def pool() -> Any:
+            release_threads()  # with only this thread running, the workers are forked (ms)
+            return executor("process", workers=workers) if workers > 1 else executor("serial")
+
         t0 = time.perf_counter()
-        scale_raw = _scale_sweep(config, progress, workdir)
+        mc_raw = _monte_carlo(config, progress, pool)
+        stage_seconds["monte_carlo"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        kinds = {"lattice": partial(table1_cloud, config)} if config.step else {}
+        kinds["continuous"] = partial(continuous_cloud, config)
+        with pool() as workers_pool:
+            storage_raw = storage_monte_carlo(
+                config.ns, config.mc_seeds, kinds, degree=config.degree, progress=progress,
+                executor=workers_pool, chunksize=STORAGE_CHUNK,
+            )  # fmt: skip
+        stage_seconds["storage"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        scale_raw = _scale_sweep(config, progress, workdir, pool)
         stage_seconds["scale_sweep"] = time.perf_counter() - t0
     scale, growth = summarize_scale(scale_raw)
     montecarlo = summarize_montecarlo(mc_raw, config.alpha)
