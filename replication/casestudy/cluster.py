@@ -6,6 +6,14 @@ unknown host is an :class:`~replication.errors.InputError` at once, a refused co
 within ``CONNECT_TIMEOUT_S`` (dask's own default is 30 s) or answers in another protocol an
 ExecutorError too, each in one line. A local cluster's worker processes ignore SIGINT, so
 that Ctrl-C in a terminal reaches the parent alone (see :mod:`.interrupts`).
+
+Ctrl-C cancels the evaluations not yet started. On a local cluster, those under way (an SPH
+simulation can take minutes) then finish, each into the SPH cache, before the cluster
+closes, as on a process pool: closing it at once would kill the workers but leave their
+simulations' engine processes (sessions of their own) running. A second Ctrl-C abandons
+them: every process of the cluster is killed, the engines first, and nothing of theirs
+enters the cache. A named cluster outlives the command: its simulations under way finish
+there, into the cache.
 """
 
 from __future__ import annotations
@@ -13,8 +21,11 @@ from __future__ import annotations
 import concurrent.futures as cf
 import contextlib
 import logging
+import os
+import signal
 import socket
-from collections.abc import Iterator
+import time
+from collections.abc import Callable, Iterator
 
 from replication.casestudy.interrupts import sigint_ignored_by_children
 from replication.errors import ExecutorError, InputError
@@ -70,17 +81,27 @@ def _connect(scheduler: str):  # type: ignore[no-untyped-def]
         ) from exc
 
 
+#: Seconds between two looks at a local cluster's workers while Ctrl-C waits for their tasks.
+IDLE_POLL_S = 0.2
+
+
 @contextlib.contextmanager
-def dask_executor(scheduler: str | None, workers: int) -> Iterator[cf.Executor]:
+def dask_executor(
+    scheduler: str | None, workers: int, on_interrupt: Callable[[], None] | None = None
+) -> Iterator[cf.Executor]:
     """A ``concurrent.futures`` executor on the scheduler at ``scheduler``, or on a local cluster
-    of ``workers`` single-threaded worker processes; closed (quietly) on exit."""
+    of ``workers`` single-threaded worker processes; closed (quietly) on exit.
+
+    ``on_interrupt`` is called when Ctrl-C leaves the block of a local cluster, before it waits
+    for the tasks under way (see the module notes).
+    """
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError as exc:  # pragma: no cover - depends on the optional extra
         raise InputError("dask evaluation needs the optional extra: pip install 'replication[dask]'") from exc
     if scheduler:
         with _log_levels_restored(), _connect(scheduler) as client:
-            yield from _dask_executor(client)
+            yield from _dask_executor(client, on_interrupt, local=False)
     else:
         with sigint_ignored_by_children():  # the worker processes started now inherit it
             cluster = LocalCluster(
@@ -93,7 +114,7 @@ def dask_executor(scheduler: str | None, workers: int) -> Iterator[cf.Executor]:
                 scheduler_kwargs={"dashboard": False},
             )
         with _log_levels_restored(), cluster, Client(cluster) as client:
-            yield from _dask_executor(client)
+            yield from _dask_executor(client, on_interrupt, local=True)
 
 
 _DASK_LOGGERS = ("distributed", "tornado")
@@ -110,13 +131,14 @@ def _log_levels_restored() -> Iterator[None]:
             logger.setLevel(level)
 
 
-def _dask_executor(client) -> Iterator[cf.Executor]:  # type: ignore[no-untyped-def]
+def _dask_executor(client, on_interrupt, *, local: bool) -> Iterator[cf.Executor]:  # type: ignore[no-untyped-def]
     """The client's executor; on exit pending evaluations are cancelled and the teardown is quiet.
 
-    After Ctrl-C evaluations may still be under way: they are cancelled, and what dask and
-    tornado log while the client and cluster close under them (connections closed, results
-    that cannot be gathered) is not shown: nobody waits for those results any more. The
-    levels are restored by :func:`_log_levels_restored` once everything is closed.
+    After Ctrl-C a local cluster waits for the tasks under way (a second Ctrl-C abandons
+    them, :func:`_abandon_local`). What dask and tornado log while the client and cluster
+    close (connections closed, results that cannot be gathered) is not shown: nobody waits
+    for those results any more. The levels are restored by :func:`_log_levels_restored`
+    once everything is closed.
     """
     from distributed.cfexecutor import ClientExecutor
 
@@ -132,7 +154,73 @@ def _dask_executor(client) -> Iterator[cf.Executor]:  # type: ignore[no-untyped-
     pool = DaskExecutor(client, pure=False)
     try:
         yield pool
+    except KeyboardInterrupt:
+        client.cancel(list(pool._futures))  # the evaluations not started never start
+        if local:
+            if on_interrupt is not None:
+                on_interrupt()
+            try:
+                _wait_until_idle(client)
+            except KeyboardInterrupt:  # Ctrl-C again: abandon the tasks under way
+                _abandon_local(client)
+                raise
+        raise
     finally:
         for name in _DASK_LOGGERS:
             logging.getLogger(name).setLevel(logging.CRITICAL)
         pool.shutdown(wait=False)
+
+
+def running_tasks(dask_worker) -> int:  # type: ignore[no-untyped-def]
+    """Tasks that occupy a thread of ``dask_worker``, cancelled ones still running included
+    (``client.run`` calls it in every worker)."""
+    return len(dask_worker.state.all_running_tasks)
+
+
+def _wait_until_idle(client, poll: float = IDLE_POLL_S) -> None:  # type: ignore[no-untyped-def]
+    """Return once no worker of the cluster runs a task (every task under way has finished)."""
+    while True:
+        try:
+            busy = sum(client.run(running_tasks).values())
+        except Exception:  # a worker gone or the cluster failing: nothing left to wait for
+            return
+        if not busy:
+            return
+        time.sleep(poll)
+
+
+def _abandon_local(client) -> None:  # type: ignore[no-untyped-def]
+    """Kill the local cluster's worker processes, then the engines their simulations ran (sessions
+    of their own, which no signal to the cluster reaches).
+
+    A worker killed this way writes nothing more into the SPH cache: a simulation enters the
+    cache only when its worker renames the finished scratch directory (:mod:`.sph_batch`), so
+    the workers die first (a worker that outlived its engine would record a crash). The
+    workers are left for their nannies to reap; the engines, reparented, for the system.
+    """
+    import psutil
+
+    try:
+        pids = list(client.run(os.getpid).values())
+    except Exception:  # the workers are out of reach: nothing here to kill
+        return
+    workers, engines = [], []
+    for pid in pids:
+        with contextlib.suppress(psutil.Error):
+            worker = psutil.Process(pid)
+            engines += worker.children(recursive=True)
+            workers.append(worker)
+    groups = [engine.pid for engine in engines if _leads_its_group(engine.pid)]
+    for process in workers + engines:
+        with contextlib.suppress(psutil.Error):
+            process.kill()
+    for pgid in groups:  # and whatever an engine started in its session
+        with contextlib.suppress(OSError):
+            os.killpg(pgid, signal.SIGKILL)
+
+
+def _leads_its_group(pid: int) -> bool:
+    try:
+        return os.getpgid(pid) == pid
+    except OSError:
+        return False

@@ -179,8 +179,9 @@ def executor(
     scheduler : str, optional
         Address of a running dask scheduler (``tcp://host:8786``); implies dask.
     on_interrupt : callable, optional
-        Called when Ctrl-C leaves the block of a process pool, before the pool waits for the
-        work under way (an SPH simulation can take minutes): the place to say so.
+        Called when Ctrl-C leaves the block of a process pool or a local dask cluster, before
+        it waits for the work under way (an SPH simulation can take minutes): the place to
+        say so.
 
     Raises
     ------
@@ -195,9 +196,10 @@ def executor(
     Worker processes (pool or local dask cluster) do not take SIGINT, so Ctrl-C in a
     terminal reaches the parent alone, which stops the run between evaluations (see
     :mod:`.interrupts`); pending evaluations are cancelled on the way out, and a process
-    pool waits for those under way, so that finished work is kept. A second Ctrl-C during
-    that wait abandons them: the workers are terminated (each kills the simulation it was
-    waiting for, see :func:`.interrupts.exit_on_terminate`).
+    pool or a local dask cluster waits for those under way, so that finished work is kept.
+    A second Ctrl-C during that wait abandons them: a pool's workers are terminated (each
+    kills the simulation it was waiting for, see :func:`.interrupts.exit_on_terminate`), a
+    local cluster's workers and their simulations' engines are killed (see :mod:`.cluster`).
     """
     check_executor_options(kind, workers, scheduler)
     n = workers or os.cpu_count() or 1
@@ -222,7 +224,7 @@ def executor(
     else:
         from replication.casestudy.cluster import dask_executor
 
-        with _resource_tracker_stopped(), dask_executor(scheduler, n) as pool:
+        with _resource_tracker_stopped(), dask_executor(scheduler, n, on_interrupt) as pool:
             yield pool
 
 
