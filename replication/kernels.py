@@ -44,9 +44,9 @@ def warm_up(*, processes: int = 1) -> None:
     Parameters
     ----------
     processes : int
-        1: compile everything here. 2 or more: compile the water-jet kernels in a helper
-        process at the same time (see the module notes); if the helper fails, whatever it
-        did not cache is compiled here, so the result is the same either way.
+        1: compile everything here. 2 or more: compile the interpolation and water-jet
+        kernels in a helper process at the same time (see the module notes); if the helper
+        fails, whatever it did not cache is compiled here, so the result is the same either way.
     """
     from numba.core import event
 

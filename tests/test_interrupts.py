@@ -193,18 +193,16 @@ def test_ctrl_c_lets_a_simulation_under_way_finish(tmp_path, kind):
     driver = int((tmp_path / "pid").read_text())
     _, err = process.communicate(timeout=60)
     assert "KeyboardInterrupt" in err and (tmp_path / "finished").exists()
-    assert not _running(driver)
+    assert _reaped(driver)
     assert_no_process_left(process.pid)
 
 
-def _running(pid):
-    """Whether ``pid`` runs (a zombie does not: an orphan's, when init is slow to reap it)."""
+def _reaped(pid):
+    """Whether ``pid`` has ended and been reaped: its worker waited for it (not even a zombie is
+    left, as an engine orphaned by a killed worker would be until init reaps it)."""
     import psutil
 
-    try:
-        return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
-    except psutil.NoSuchProcess:
-        return False
+    return not psutil.pid_exists(pid)
 
 
 @pytest.mark.slow
@@ -219,12 +217,69 @@ def test_ctrl_c_again_abandons_the_simulation_under_way_and_leaves_no_process(tm
         _, err = process.communicate(timeout=60)
         assert time.monotonic() - started < 30 and "KeyboardInterrupt" in err
         assert not (tmp_path / "finished").exists()
-        assert not _running(driver)  # killed on the way out, though a session of its own
+        assert _reaped(driver)  # killed on the way out by its worker, though a session of its own
         assert_no_process_left(process.pid)
     finally:  # a failure leaves no sleeping driver behind
         for pid, kill in ((driver, os.kill), (process.pid, os.killpg)):
             with contextlib.suppress(ProcessLookupError, PermissionError):
                 kill(pid, signal.SIGKILL)
+
+
+_BLOCKED_ON_DASK = """
+import os, signal, sys, time
+signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal
+sys.path.insert(0, sys.argv[2])
+import workerfaults
+from replication.casestudy import cluster
+from replication.casestudy.evaluate import executor
+
+cluster.ABANDON_GRACE_S = 1.0
+marker = os.path.join(sys.argv[1], "blocked")
+with executor("dask", workers=1, on_interrupt=lambda: print("stopping", flush=True)) as pool:
+    future = pool.submit(workerfaults.blocked_in_c, marker, 600.0)
+    while not (os.path.exists(marker) and open(marker).read()):
+        time.sleep(0.02)
+    raise KeyboardInterrupt
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not _has_dask(), reason="dask is not installed")
+def test_ctrl_c_again_kills_a_dask_worker_whose_task_does_not_unwind(tmp_path):
+    process = subprocess.Popen(
+        [sys.executable, "-c", _BLOCKED_ON_DASK, str(tmp_path), str(Path(__file__).parent)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+    )  # fmt: skip
+    try:
+        lines = []
+        reader = threading.Thread(target=lambda: lines.append(process.stdout.readline()), daemon=True)
+        reader.start()
+        reader.join(timeout=60)
+        assert lines == ["stopping\n"]
+        time.sleep(0.5)  # waiting for the task, which sleeps in C for 600 s
+        started = time.monotonic()
+        process.send_signal(signal.SIGINT)  # Ctrl-C again
+        _, err = process.communicate(timeout=60)
+        assert time.monotonic() - started < 30 and "KeyboardInterrupt" in err
+        assert_no_process_left(process.pid)
+        engine = int((tmp_path / "blocked").read_text())
+        assert not _alive(engine)  # the engine-like child, in a session of its own, was killed too
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)
+        with contextlib.suppress(ProcessLookupError, ValueError, FileNotFoundError):
+            os.killpg(int((tmp_path / "blocked").read_text()), signal.SIGKILL)
+
+
+def _alive(pid):
+    """Whether ``pid`` runs (a zombie does not: an orphan killed with its worker waits for
+    init to reap it)."""
+    import psutil
+
+    try:
+        return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return False
 
 
 def test_abandoning_a_pool_kills_a_worker_that_does_not_unwind(tmp_path):

@@ -7,6 +7,7 @@ from functools import partial
 
 import pandas as pd
 import pytest
+from workerfaults import broken_cloud
 
 from replication.casestudy.evaluate import executor
 from replication.errors import InputError
@@ -16,33 +17,23 @@ from replication.experiments.table1 import Table1Config, continuous_cloud, run_t
 from replication.kernels import release_threads
 
 CONFIG = dataclasses.replace(Table1Config.quick_config(), ns=(9, 45), mc_seeds=3)
+#: Columns of the Monte Carlo data that are timings (they differ from run to run).
+TIMINGS = {"adt_s", "nurbs_geomdl_s", "nurbs_fast_s", "time_ratio_geomdl", "time_ratio_fast",
+           "time_difference_geomdl"}  # fmt: skip
 
 
 def _no_progress(items, description, total):
     return items
 
 
-def _two_workers():
-    release_threads()  # forked workers, as in the command
-    return executor("process", workers=2)
-
-
-@pytest.fixture(scope="module")
-def pool():
-    with _two_workers() as p:
-        yield p
-
-
 @pytest.mark.filterwarnings("ignore::replication.errors.DuplicatePointsWarning")  # lattice merges (run_table1 too)
 def test_monte_carlo_statistics_on_workers_match_one_process():
-    timing_columns = {"adt_s", "nurbs_geomdl_s", "nurbs_fast_s", "time_ratio_geomdl", "time_ratio_fast",
-                      "time_difference_geomdl"}  # fmt: skip
-    here = table1._monte_carlo(CONFIG, _no_progress, lambda: executor("serial"))
-    there = table1._monte_carlo(CONFIG, _no_progress, _two_workers)
+    here = table1._monte_carlo(CONFIG, _no_progress, 1)
+    there = table1._monte_carlo(CONFIG, _no_progress, 2)
     assert len(here) == len(CONFIG.ns) * CONFIG.mc_seeds
     assert list(here.columns) == list(there.columns)
     assert {"a_t_p", "b_wilcoxon_p", "a_equivalent", "b_rms_pct"} <= set(here.columns)
-    kept = [c for c in here.columns if c not in timing_columns]
+    kept = [c for c in here.columns if c not in TIMINGS]
     pd.testing.assert_frame_equal(here[kept], there[kept])
     # each row holds the statistics of its own cloud, not of a neighbour's
     one = here[(here["n"] == 45) & (here["replicate"] == 2)].iloc[0]
@@ -50,10 +41,12 @@ def test_monte_carlo_statistics_on_workers_match_one_process():
     assert row["a_t_p"] == one["a_t_p"] and row["b_rms_pct"] == one["b_rms_pct"]
 
 
-def test_storage_sizes_on_workers_match_one_process(pool):
+def test_storage_sizes_on_workers_match_one_process():
     kinds = {"lattice": partial(table1_cloud, CONFIG), "continuous": partial(continuous_cloud, CONFIG)}
     here = storage_monte_carlo(CONFIG.ns, 3, kinds)
-    there = storage_monte_carlo(CONFIG.ns, 3, kinds, executor=pool, chunksize=4)
+    release_threads()
+    with executor("process", workers=2) as pool:
+        there = storage_monte_carlo(CONFIG.ns, 3, kinds, executor=pool, chunksize=4)
     assert len(here) == len(CONFIG.ns) * 3 * 2
     pd.testing.assert_frame_equal(here, there)
 
@@ -61,8 +54,8 @@ def test_storage_sizes_on_workers_match_one_process(pool):
 def test_scale_file_sizes_on_workers_match_one_process(tmp_path):
     config = dataclasses.replace(CONFIG, scale_ns=(1_000, 3_000, 10_000), scale_max_files=3_000,
                                  scale_max_fast=1_000, scale_repeats=1)  # fmt: skip
-    here = table1._scale_sweep(config, _no_progress, tmp_path, lambda: executor("serial"))
-    there = table1._scale_sweep(config, _no_progress, tmp_path, _two_workers)
+    here = table1._scale_sweep(config, _no_progress, tmp_path, 1)
+    there = table1._scale_sweep(config, _no_progress, tmp_path, 2)
     files = here[here["bytes"].notna()]
     assert list(zip(files["n"], files["method"])) == [
         (1_000, "ADT file (.vtp)"), (1_000, "ADT file (.vtk)"), (1_000, "NURBS file (.smesh)"),
@@ -75,14 +68,52 @@ def test_scale_file_sizes_on_workers_match_one_process(tmp_path):
         table1.scale_file_size(config, str(tmp_path), (1_000, "PLY"))
 
 
-def test_a_failing_cloud_fails_the_run_with_its_own_error(pool):
-    kinds = {"lattice": partial(_broken_cloud, "bad input")}
+def test_the_whole_experiment_on_workers_matches_one_process():
+    """run_table1 end to end on a tiny configuration: every table but the timings is equal."""
+    config = dataclasses.replace(CONFIG, repeats=1, warmup=0, mc_seeds=2, scale_ns=(1_000, 3_000),
+                                 scale_repeats=1, scale_max_files=3_000)  # fmt: skip
+    one, two = run_table1(config, workers=1), run_table1(config, workers=2)
+    assert (one.provenance["workers"], two.provenance["workers"]) == (1, 2)
+    for name in ("sizes", "clouds", "stats", "storage_raw", "storage"):
+        pd.testing.assert_frame_equal(getattr(one, name), getattr(two, name))
+    kept = [c for c in one.montecarlo_raw.columns if c not in TIMINGS]
+    pd.testing.assert_frame_equal(one.montecarlo_raw[kept], two.montecarlo_raw[kept])
+    files = [frame[frame["bytes"].notna()] for frame in (one.scale_raw, two.scale_raw)]
+    pd.testing.assert_frame_equal(*files)
+    untimed = ~one.claims["claim"].str.contains("time|faster")  # the timing claims may differ
+    assert untimed.sum() >= 10
+    pd.testing.assert_frame_equal(one.claims[untimed], two.claims[untimed])
+
+
+def test_a_failing_cloud_fails_the_run_with_its_own_error():
+    kinds = {"lattice": partial(broken_cloud, "bad input")}
     with pytest.raises(ValueError, match="bad input"):
+        storage_monte_carlo((9,), 2, kinds)
+    release_threads()
+    with executor("process", workers=2) as pool, pytest.raises(ValueError, match="bad input"):
         storage_monte_carlo((9,), 2, kinds, executor=pool)
 
 
-def _broken_cloud(message, n, k):
-    raise ValueError(message)
+def test_one_worker_stops_at_the_first_interrupt(monkeypatch):
+    """With one worker the untimed work is a plain loop: Ctrl-C stops it at once (an executor's
+    map would first run every job, the interrupt kept in a future)."""
+    calls = []
+
+    def interrupted(config, job):
+        calls.append(job)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(table1, "monte_carlo_statistics", interrupted)
+    monkeypatch.setattr(table1, "_monte_carlo_timings", lambda config, progress: [
+        {"n": n, "replicate": k} for k in (1, 2, 3) for n in config.ns])  # fmt: skip
+    with pytest.raises(KeyboardInterrupt):
+        table1._monte_carlo(CONFIG, _no_progress, 1)
+    assert len(calls) == 1
+
+
+@pytest.mark.parametrize("jobs, workers, chunk", [(20, 2, 3), (1000, 2, 25), (1, 2, 1), (40, 1, 10), (0, 2, 1)])
+def test_chunks_leave_every_worker_work(jobs, workers, chunk):
+    assert table1._chunk(jobs, workers, 25) == chunk
 
 
 @pytest.mark.parametrize("workers", [0, -1, 1.5, True, "2"])

@@ -85,3 +85,23 @@ def deaf_to_sigterm(marker, seconds):
     pathlib.Path(marker).touch()
     time.sleep(seconds)
     return seconds
+
+
+def broken_cloud(message, n, k):
+    """A cloud factory that fails (picklable by reference, for worker processes)."""
+    raise ValueError(message)
+
+
+def blocked_in_c(marker, seconds):
+    """A task that starts an engine-like child in a session of its own (its pid into
+    ``marker``), then sleeps in one C call: no Python code runs to take an exception raised
+    in its thread, so only killing its process ends it, and only a killpg its child."""
+    import pathlib
+    import subprocess
+    import sys
+    import time
+
+    child = subprocess.Popen([sys.executable, "-c", f"import time; time.sleep({seconds})"], start_new_session=True)
+    pathlib.Path(marker).write_text(str(child.pid))
+    time.sleep(seconds)
+    return seconds

@@ -7,13 +7,15 @@ within ``CONNECT_TIMEOUT_S`` (dask's own default is 30 s) or answers in another 
 ExecutorError too, each in one line. A local cluster's worker processes ignore SIGINT, so
 that Ctrl-C in a terminal reaches the parent alone (see :mod:`.interrupts`).
 
-Ctrl-C cancels the evaluations not yet started. On a local cluster, those under way (an SPH
-simulation can take minutes) then finish, each into the SPH cache, before the cluster
-closes, as on a process pool: closing it at once would kill the workers but leave their
-simulations' engine processes (sessions of their own) running. A second Ctrl-C abandons
-them: every process of the cluster is killed, the engines first, and nothing of theirs
-enters the cache. A named cluster outlives the command: its simulations under way finish
-there, into the cache.
+Ctrl-C (or an error) cancels the evaluations not yet started. On a local cluster, those under
+way (an SPH simulation can take minutes) then finish, each into the SPH cache, before the
+cluster closes, as on a process pool: closing it at once would kill the workers but leave
+their simulations' engine processes (sessions of their own) running. A second Ctrl-C
+abandons them: the tasks under way are interrupted in their worker threads (the exception
+:class:`AbandonedTask`), so each unwinds as a process-pool worker does on SIGTERM, killing
+its engine and removing its scratch directory, and nothing of theirs enters the cache.
+Workers that do not unwind within ``ABANDON_GRACE_S`` are killed, then their engines. A
+named cluster outlives the command: its simulations under way finish there, into the cache.
 """
 
 from __future__ import annotations
@@ -83,6 +85,14 @@ def _connect(scheduler: str):  # type: ignore[no-untyped-def]
 
 #: Seconds between two looks at a local cluster's workers while Ctrl-C waits for their tasks.
 IDLE_POLL_S = 0.2
+#: Seconds the interrupted tasks of a local cluster have to unwind before their workers are killed.
+ABANDON_GRACE_S = 5.0
+
+
+class AbandonedTask(BaseException):
+    """Raised in a dask worker's task thread by a second Ctrl-C: the task unwinds (its ``finally``
+    blocks kill its engine and remove its scratch files). A BaseException, so that no handler
+    of ordinary errors records it as a failed simulation."""
 
 
 @contextlib.contextmanager
@@ -154,16 +164,19 @@ def _dask_executor(client, on_interrupt, *, local: bool) -> Iterator[cf.Executor
     pool = DaskExecutor(client, pure=False)
     try:
         yield pool
-    except KeyboardInterrupt:
-        client.cancel(list(pool._futures))  # the evaluations not started never start
-        if local:
-            if on_interrupt is not None:
-                on_interrupt()
-            try:
+    except (Exception, KeyboardInterrupt) as exc:
+        try:
+            client.cancel(list(pool._futures))  # the evaluations not started never start
+            if local:
+                if on_interrupt is not None and isinstance(exc, KeyboardInterrupt):
+                    on_interrupt()
                 _wait_until_idle(client)
-            except KeyboardInterrupt:  # Ctrl-C again: abandon the tasks under way
+        except KeyboardInterrupt:  # Ctrl-C (again): abandon the tasks under way
+            if local:
+                for name in _DASK_LOGGERS:  # the teardown of interrupted tasks is not news
+                    logging.getLogger(name).setLevel(logging.CRITICAL)
                 _abandon_local(client)
-                raise
+            raise
         raise
     finally:
         for name in _DASK_LOGGERS:
@@ -177,31 +190,60 @@ def running_tasks(dask_worker) -> int:  # type: ignore[no-untyped-def]
     return len(dask_worker.state.all_running_tasks)
 
 
-def _wait_until_idle(client, poll: float = IDLE_POLL_S) -> None:  # type: ignore[no-untyped-def]
-    """Return once no worker of the cluster runs a task (every task under way has finished)."""
+def _wait_until_idle(client, poll: float = IDLE_POLL_S, deadline: float | None = None) -> bool:  # type: ignore[no-untyped-def]
+    """Return True once no worker of the cluster runs a task (seen twice in a row, so that a task
+    handed to a worker just before the cancellation is not missed); False at ``deadline``
+    (``time.monotonic()``). A worker that does not answer (gone) is not waited for; a
+    cluster that cannot be asked at all has nothing left to wait for."""
+    idle = 0
     while True:
         try:
-            busy = sum(client.run(running_tasks).values())
-        except Exception:  # a worker gone or the cluster failing: nothing left to wait for
-            return
-        if not busy:
-            return
+            answers = client.run(running_tasks, on_error="return")
+        except Exception:  # the scheduler or the client is gone
+            return True
+        busy = sum(n for n in answers.values() if isinstance(n, int))
+        idle = idle + 1 if not busy else 0
+        if idle >= 2:
+            return True
+        if deadline is not None and time.monotonic() >= deadline:
+            return False
         time.sleep(poll)
 
 
-def _abandon_local(client) -> None:  # type: ignore[no-untyped-def]
-    """Kill the local cluster's worker processes, then the engines their simulations ran (sessions
-    of their own, which no signal to the cluster reaches).
+def abandon_tasks(dask_worker) -> int:  # type: ignore[no-untyped-def]
+    """Raise :class:`AbandonedTask` in every thread of ``dask_worker`` that runs a task; return
+    how many (``client.run`` calls it in every worker). The exception is raised when the
+    thread next runs Python code: a simulation's wait loop polls every 0.1 s."""
+    import ctypes
 
-    A worker killed this way writes nothing more into the SPH cache: a simulation enters the
-    cache only when its worker renames the finished scratch directory (:mod:`.sph_batch`), so
-    the workers die first (a worker that outlived its engine would record a crash). The
-    workers are left for their nannies to reap; the engines, reparented, for the system.
+    with dask_worker.active_threads_lock:
+        threads = list(dask_worker.active_threads)
+    raised = 0
+    for ident in threads:
+        raised += ctypes.pythonapi.PyThreadState_SetAsyncExc(
+            ctypes.c_ulong(ident), ctypes.py_object(AbandonedTask)
+        )
+    return raised
+
+
+def _abandon_local(client, grace: float | None = None) -> None:  # type: ignore[no-untyped-def]
+    """End the tasks under way on the local cluster: interrupt them (:func:`abandon_tasks`), and
+    if they have not unwound after ``grace`` seconds (default ``ABANDON_GRACE_S``), kill their
+    workers (a task blocked in C code cannot be interrupted), then the engines
+    their simulations ran (sessions of their own, which no signal to the cluster reaches).
+
+    A killed worker writes nothing more into the SPH cache: a simulation enters the cache
+    only when its worker renames the finished scratch directory (:mod:`.sph_batch`), so the
+    workers die first (a worker that outlived its engine would record a crash). Killed
+    workers are left for their nannies to reap; their engines, reparented, for the system.
     """
     import psutil
 
     try:
-        pids = list(client.run(os.getpid).values())
+        client.run(abandon_tasks, on_error="return")
+        if _wait_until_idle(client, deadline=time.monotonic() + (ABANDON_GRACE_S if grace is None else grace)):
+            return
+        pids = [pid for pid in client.run(os.getpid, on_error="return").values() if isinstance(pid, int)]
     except Exception:  # the workers are out of reach: nothing here to kill
         return
     workers, engines = [], []

@@ -211,7 +211,8 @@ def register(sub: argparse._SubParsersAction) -> None:
             "--workers",
             type=positive_int,
             metavar="N",
-            help="worker processes for the untimed work (Table 1's paired statistics and storage sizes"
+            help="worker processes for the untimed work (Table 1's paired statistics, storage sizes and "
+            "scale-sweep file sizes"
             + ("; the case study's fitness evaluations" if name == "reproduce" else "")
             + "); Table 1's timings run alone, in the command's own process, and no result depends "
             "on N (default: the number of CPUs)",

@@ -34,10 +34,13 @@ Results are DataFrames (raw and summarised); nothing here writes a result file.
 
 from __future__ import annotations
 
+import contextlib
+import math
 import tempfile
 import time
 import warnings
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field
 from functools import partial
 from pathlib import Path
@@ -358,19 +361,45 @@ def monte_carlo_statistics(config: Table1Config, job: tuple[int, int]) -> dict[s
     return row
 
 
-#: Monte Carlo clouds (or storage clouds) handed to a worker process at a time: about 0.3 s
-#: (0.1 s) of work per task, so that the pool's overhead stays small.
+#: At most this many Monte Carlo clouds (storage clouds) go to a worker process at a time:
+#: about 0.3 s (0.1 s) of work per task, so that the pool's overhead stays small.
 MC_CHUNK = 25
 STORAGE_CHUNK = 40
 
 
-def _monte_carlo(config: Table1Config, progress: Progress, workers: Callable[[], Any]) -> pd.DataFrame:
+@contextlib.contextmanager
+def _worker_pool(workers: int) -> Iterator[Executor | None]:
+    """A process pool of ``workers`` for untimed work, opened now (after the timings it
+    follows) and closed on exit; None for one worker: the work then runs here, as a plain loop
+    (Ctrl-C and errors stop it at once)."""
+    if workers == 1:
+        yield None
+        return
+    from replication.casestudy.evaluate import executor  # the case study's process pool, reused
+    from replication.kernels import release_threads
+
+    release_threads()  # with only this thread running, the workers are forked (ms), not spawned
+    with executor("process", workers=workers) as pool:
+        yield pool
+
+
+def _chunk(jobs: int, workers: int, most: int) -> int:
+    """Jobs per task: at most ``most``, and at least four tasks per worker when there are few."""
+    return max(1, min(most, math.ceil(jobs / (4 * workers))))
+
+
+def _mapped(pool: Executor | None, function: Callable[[Any], Any], jobs: list[Any], chunksize: int) -> Iterable[Any]:
+    """``function`` over ``jobs`` in order: on ``pool``, or here when it is None."""
+    return map(function, jobs) if pool is None else pool.map(function, jobs, chunksize=chunksize)
+
+
+def _monte_carlo(config: Table1Config, progress: Progress, workers: int = 1) -> pd.DataFrame:
     """Every Monte Carlo cloud: sizes and times (timed here, alone), then the paired
-    statistics (untimed: on the executor ``workers()`` opens, results in the same order)."""
+    statistics (untimed: on ``workers`` processes, results in the same order)."""
     rows = _monte_carlo_timings(config, progress)
     jobs = [(row["n"], row["replicate"]) for row in rows]
-    with workers() as pool:
-        stats = pool.map(partial(monte_carlo_statistics, config), jobs, chunksize=MC_CHUNK)
+    with _worker_pool(workers) as pool:
+        stats = _mapped(pool, partial(monte_carlo_statistics, config), jobs, _chunk(len(jobs), workers, MC_CHUNK))
         for row, extra in zip(rows, progress(stats, "paired statistics of the Monte Carlo clouds", len(jobs))):
             row.update(extra)
     return pd.DataFrame(rows).sort_values(["n", "replicate"], ignore_index=True)
@@ -457,11 +486,9 @@ def scale_file_size(config: Table1Config, workdir: str, job: tuple[int, str]) ->
     return {"n": n, "method": method, "bytes": size}
 
 
-def _scale_sweep(
-    config: Table1Config, progress: Progress, workdir: Path, workers: Callable[[], Any]
-) -> pd.DataFrame:
+def _scale_sweep(config: Table1Config, progress: Progress, workdir: Path, workers: int = 1) -> pd.DataFrame:
     """Build times up to 1e7 points (timed here, alone), then the file sizes up to
-    ``config.scale_max_files`` (untimed: on the executor ``workers()`` opens)."""
+    ``config.scale_max_files`` (untimed: on ``workers`` processes)."""
     timings: dict[int, list[dict[str, Any]]] = {}
     jobs = [n for n in config.scale_ns]
     for n in progress(jobs, "scale sweep", len(jobs)):
@@ -481,10 +508,10 @@ def _scale_sweep(
     files = [(n, method) for n in jobs if n <= config.scale_max_files
              for method in SCALE_FILES if method != SCALE_FILES[2] or n <= config.scale_max_fast]  # fmt: skip
     sizes: dict[int, list[dict[str, Any]]] = {n: [] for n in jobs}
-    with workers() as pool:
+    with _worker_pool(workers) as pool:
         # largest first, so that the longest jobs do not start last
         order = sorted(files, key=lambda job: -job[0])
-        measured = pool.map(partial(scale_file_size, config, str(workdir)), order)
+        measured = _mapped(pool, partial(scale_file_size, config, str(workdir)), order, 1)
         for job, row in zip(order, progress(measured, "scale sweep: file sizes", len(order))):
             sizes[job[0]].append(row)
     rows = []
@@ -554,9 +581,7 @@ def run_table1(
     """
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise InputError(f"workers must be a positive integer, got {workers!r}")
-    from replication.casestudy.evaluate import executor  # the case study's process pool, reused
-    from replication.kernels import release_threads
-
+    workers = int(workers)
     progress = progress or _no_progress
     started = time.perf_counter()
     stage_seconds = {}
@@ -569,24 +594,21 @@ def run_table1(
         stage_seconds["single_sample"] = time.perf_counter() - t0
         # the untimed work (statistics, storage and file sizes) on worker processes, each pool
         # opened after the timings it follows: no timing ever runs beside a worker
-        def pool() -> Any:
-            release_threads()  # with only this thread running, the workers are forked (ms)
-            return executor("process", workers=workers) if workers > 1 else executor("serial")
-
         t0 = time.perf_counter()
-        mc_raw = _monte_carlo(config, progress, pool)
+        mc_raw = _monte_carlo(config, progress, workers)
         stage_seconds["monte_carlo"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         kinds = {"lattice": partial(table1_cloud, config)} if config.step else {}
         kinds["continuous"] = partial(continuous_cloud, config)
-        with pool() as workers_pool:
+        jobs = len(config.ns) * config.mc_seeds * len(kinds)
+        with _worker_pool(workers) as pool:
             storage_raw = storage_monte_carlo(
                 config.ns, config.mc_seeds, kinds, degree=config.degree, progress=progress,
-                executor=workers_pool, chunksize=STORAGE_CHUNK,
+                executor=pool, chunksize=_chunk(jobs, workers, STORAGE_CHUNK),
             )  # fmt: skip
         stage_seconds["storage"] = time.perf_counter() - t0
         t0 = time.perf_counter()
-        scale_raw = _scale_sweep(config, progress, workdir, pool)
+        scale_raw = _scale_sweep(config, progress, workdir, workers)
         stage_seconds["scale_sweep"] = time.perf_counter() - t0
     scale, growth = summarize_scale(scale_raw)
     montecarlo = summarize_montecarlo(mc_raw, config.alpha)
@@ -603,7 +625,7 @@ def run_table1(
             f"continuous cloud default_rng([{config.seed}, n, {SCALE_STREAM}])"
         ),
         stage_seconds=stage_seconds,
-        workers=int(workers),  # processes of the untimed stages (statistics, storage)
+        workers=workers,  # processes of the untimed work (statistics, storage and file sizes)
         run_seconds=time.perf_counter() - started,
     )
     return Table1Results(

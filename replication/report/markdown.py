@@ -78,6 +78,6 @@ def provenance_section(record: dict[str, Any]) -> str:
             else ""
         ),
     ]
-    if record.get("workers"):
-        lines.append(f"- Worker processes for the untimed work: {record['workers']} (timings ran alone)")
+    if (record.get("workers") or 1) > 1:
+        lines.append(f"- Worker processes for the untimed work: {record['workers']} (the timings ran alone)")
     return "\n".join(lines)
