@@ -169,6 +169,21 @@ def test_python_dash_m_entry_point():
     assert result.stdout.startswith("replication ")
 
 
+def test_the_quick_exit_keeps_the_output_and_the_exit_status(tmp_path, capsys):
+    """The console entry freezes the command's objects before exiting (cli.run): the file it
+    wrote is complete and the same as in-process main's, and errors keep their status."""
+    command = [sys.executable, "-m", "replication", "adt", "--random", "300", "--seed", "4"]
+    done = subprocess.run([*command, "-o", str(tmp_path / "a.vtk")], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert main(["adt", "--random", "300", "--seed", "4", "-o", str(tmp_path / "b.vtk")]) == 0
+    assert (tmp_path / "a.vtk").read_bytes() == (tmp_path / "b.vtk").read_bytes()
+    assert done.stdout == capsys.readouterr().out.replace(str(tmp_path / "b.vtk"), str(tmp_path / "a.vtk"))
+    missing = subprocess.run([*command[:4], str(tmp_path / "missing.csv")], capture_output=True, text=True)
+    assert missing.returncode == 1 and len(missing.stderr.strip().splitlines()) == 1
+    usage = subprocess.run([*command[:4], "--no-such-option"], capture_output=True, text=True)
+    assert usage.returncode == 2
+
+
 # ---- nurbs and compare ------------------------------------------------------------------------
 
 

@@ -17,7 +17,7 @@ from collections.abc import Callable, Iterable, Sequence
 
 from replication.errors import ReplicationError
 
-__all__ = ["COMMANDS", "build_parser", "main"]
+__all__ = ["COMMANDS", "build_parser", "main", "run"]
 
 DEBUG_HELP = "on an unexpected error, show the full Python traceback"
 
@@ -149,3 +149,20 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         print(f"{name}: error: {_one_line(exc)} (run with --debug for the traceback)", file=sys.stderr)
         return 1
+
+
+def run() -> None:
+    """The ``replication`` console script (and ``python -m replication``): :func:`main`, then exit.
+
+    At exit the interpreter's final garbage collections walk every object the command loaded
+    (numba and LLVM, scipy, pandas): 0.12 s of a 1 s ``replication adt``, measured on this
+    project's machine. The command's objects are frozen first (:func:`gc.freeze`), so those
+    collections skip them. Output files are written and closed by then, and atexit handlers
+    and worker shutdowns run as usual; only finalizers of objects caught in reference cycles
+    may not run, which Python never promises at exit anyway.
+    """
+    import gc
+
+    status = main()
+    gc.freeze()
+    sys.exit(status)
