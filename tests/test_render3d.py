@@ -12,7 +12,8 @@ from replication.surfaces import adt, random_cloud
 def _views(tmp_path, tag):
     surfaces = [adt(random_cloud(n, rng=n)) for n in (9, 60, 200)]
     return {
-        tmp_path / f"{tag}{k}.png": [("ADT", (s.points, s.triangles))] + ([("NURBS", (s.points, s.triangles))] if k else [])
+        tmp_path / f"{tag}{k}.png": [("ADT", (s.points, s.triangles))]
+        + ([("NURBS", (s.points, s.triangles))] if k else [])
         for k, s in enumerate(surfaces)
     }
 

@@ -96,7 +96,9 @@ def test_hint_after_an_interrupted_reproduce_quick(capsys, tmp_path, monkeypatch
     """reproduce --quick, Ctrl-C in the GA stage; the printed command finishes the reports."""
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr("os.cpu_count", lambda: 1)  # reproduce's automatic executor: serial, no pool start-up
-    monkeypatch.setattr("replication.cli.reports._run_table1", lambda out, quick, command, workers=None: out / "table1.md")
+    monkeypatch.setattr(
+        "replication.cli.reports._run_table1", lambda out, quick, command, workers=None: out / "table1.md"
+    )
     monkeypatch.setattr("replication.casestudy.sph.engine_available", lambda: False)  # 6 s, not the point
     _interrupt_after(monkeypatch, 4)  # during the second of the three quick runs
     out = tmp_path / "quick-reports"

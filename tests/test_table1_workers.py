@@ -7,7 +7,6 @@ from functools import partial
 
 import pandas as pd
 import pytest
-from workerfaults import broken_cloud
 
 from replication.casestudy.evaluate import executor
 from replication.errors import InputError
@@ -15,6 +14,7 @@ from replication.experiments import table1
 from replication.experiments.storage import storage_monte_carlo
 from replication.experiments.table1 import Table1Config, continuous_cloud, run_table1, table1_cloud
 from replication.kernels import release_threads
+from workerfaults import broken_cloud
 
 CONFIG = dataclasses.replace(Table1Config.quick_config(), ns=(9, 45), mc_seeds=3)
 #: Columns of the Monte Carlo data that are timings (they differ from run to run).
@@ -26,7 +26,9 @@ def _no_progress(items, description, total):
     return items
 
 
-@pytest.mark.filterwarnings("ignore::replication.errors.DuplicatePointsWarning")  # lattice merges (run_table1 too)
+@pytest.mark.filterwarnings(
+    "ignore::replication.errors.DuplicatePointsWarning"
+)  # lattice merges (run_table1 too)
 def test_monte_carlo_statistics_on_workers_match_one_process():
     here = table1._monte_carlo(CONFIG, _no_progress, 1)
     there = table1._monte_carlo(CONFIG, _no_progress, 2)
@@ -111,7 +113,9 @@ def test_one_worker_stops_at_the_first_interrupt(monkeypatch):
     assert len(calls) == 1
 
 
-@pytest.mark.parametrize("jobs, workers, chunk", [(20, 2, 3), (1000, 2, 25), (1, 2, 1), (40, 1, 10), (0, 2, 1)])
+@pytest.mark.parametrize(
+    "jobs, workers, chunk", [(20, 2, 3), (1000, 2, 25), (1, 2, 1), (40, 1, 10), (0, 2, 1)]
+)
 def test_chunks_leave_every_worker_work(jobs, workers, chunk):
     assert table1._chunk(jobs, workers, 25) == chunk
 

@@ -101,7 +101,9 @@ def blocked_in_c(marker, seconds):
     import sys
     import time
 
-    child = subprocess.Popen([sys.executable, "-c", f"import time; time.sleep({seconds})"], start_new_session=True)
+    child = subprocess.Popen(
+        [sys.executable, "-c", f"import time; time.sleep({seconds})"], start_new_session=True
+    )
     pathlib.Path(marker).write_text(str(child.pid))
     time.sleep(seconds)
     return seconds

@@ -241,7 +241,9 @@ def _abandon_local(client, grace: float | None = None) -> None:  # type: ignore[
 
     try:
         client.run(abandon_tasks, on_error="return")
-        if _wait_until_idle(client, deadline=time.monotonic() + (ABANDON_GRACE_S if grace is None else grace)):
+        if _wait_until_idle(
+            client, deadline=time.monotonic() + (ABANDON_GRACE_S if grace is None else grace)
+        ):
             return
         pids = [pid for pid in client.run(os.getpid, on_error="return").values() if isinstance(pid, int)]
     except Exception:  # the workers are out of reach: nothing here to kill

@@ -59,6 +59,7 @@ __all__ = [
     "EQUAL_PRECISION",
     "COORDINATES",
     "storage_row",
+    "ordered_map",
     "storage_monte_carlo",
     "storage_sizes",
     "summarize_storage",
@@ -109,6 +110,14 @@ def storage_row(points: np.ndarray, triangles: np.ndarray, patch: NurbsPatch) ->
     return row
 
 
+def ordered_map(
+    executor: Executor | None, function: Callable[[Any], Any], jobs: list[Any], chunksize: int = 1
+) -> Iterable[Any]:
+    """``function`` over ``jobs``, results in order: on ``executor``, or here, one after another,
+    when it is None (a plain loop: Ctrl-C and errors stop it at once)."""
+    return map(function, jobs) if executor is None else executor.map(function, jobs, chunksize=chunksize)
+
+
 def storage_sizes(
     clouds: dict[str, Callable[[int, int], np.ndarray]], degree: int, job: tuple[int, int, str]
 ) -> dict[str, Any]:
@@ -122,7 +131,12 @@ def storage_sizes(
         cloud = clouds[kind](n, k)
         surface = adt(cloud)
         nurbs = fit_nurbs(cloud, degree=degree, tessellation=None, triangulation=surface)
-    return {"n": n, "replicate": k, "coordinates": kind, **storage_row(surface.points, surface.triangles, nurbs.patch)}
+    return {
+        "n": n,
+        "replicate": k,
+        "coordinates": kind,
+        **storage_row(surface.points, surface.triangles, nurbs.patch),
+    }
 
 
 def storage_monte_carlo(
@@ -167,9 +181,7 @@ def storage_monte_carlo(
     """
     jobs = [(n, k, kind) for k in range(1, replicates + 1) for n in ns for kind in clouds]
     measure = partial(storage_sizes, clouds, degree)
-    rows: Iterable[dict[str, Any]] = (
-        map(measure, jobs) if executor is None else executor.map(measure, jobs, chunksize=chunksize)
-    )
+    rows: Iterable[dict[str, Any]] = ordered_map(executor, measure, jobs, chunksize)
     if progress is not None:
         rows = progress(rows, f"storage in {len(FAMILIES)} families", len(jobs))
     frame = pd.DataFrame(list(rows))

@@ -51,7 +51,12 @@ import pandas as pd
 
 from replication.compare import compare
 from replication.errors import DuplicatePointsWarning, InputError
-from replication.experiments.storage import storage_monte_carlo, storage_row, summarize_storage
+from replication.experiments.storage import (
+    ordered_map,
+    storage_monte_carlo,
+    storage_row,
+    summarize_storage,
+)
 from replication.experiments.table1_claims import table1_claims
 from replication.experiments.timing import interleaved, ratio_per_repeat, summarize
 from replication.io.nurbs import smesh_text, write_nurbs
@@ -388,19 +393,18 @@ def _chunk(jobs: int, workers: int, most: int) -> int:
     return max(1, min(most, math.ceil(jobs / (4 * workers))))
 
 
-def _mapped(pool: Executor | None, function: Callable[[Any], Any], jobs: list[Any], chunksize: int) -> Iterable[Any]:
-    """``function`` over ``jobs`` in order: on ``pool``, or here when it is None."""
-    return map(function, jobs) if pool is None else pool.map(function, jobs, chunksize=chunksize)
-
-
 def _monte_carlo(config: Table1Config, progress: Progress, workers: int = 1) -> pd.DataFrame:
     """Every Monte Carlo cloud: sizes and times (timed here, alone), then the paired
     statistics (untimed: on ``workers`` processes, results in the same order)."""
     rows = _monte_carlo_timings(config, progress)
     jobs = [(row["n"], row["replicate"]) for row in rows]
     with _worker_pool(workers) as pool:
-        stats = _mapped(pool, partial(monte_carlo_statistics, config), jobs, _chunk(len(jobs), workers, MC_CHUNK))
-        for row, extra in zip(rows, progress(stats, "paired statistics of the Monte Carlo clouds", len(jobs))):
+        stats = ordered_map(
+            pool, partial(monte_carlo_statistics, config), jobs, _chunk(len(jobs), workers, MC_CHUNK)
+        )
+        for row, extra in zip(
+            rows, progress(stats, "paired statistics of the Monte Carlo clouds", len(jobs))
+        ):
             row.update(extra)
     return pd.DataFrame(rows).sort_values(["n", "replicate"], ignore_index=True)
 
@@ -457,7 +461,9 @@ def summarize_montecarlo(raw: pd.DataFrame, alpha: float = 0.05) -> pd.DataFrame
 
 def _scale_cloud(config: Table1Config, n: int) -> np.ndarray:
     """The scale sweep's continuous cloud of ``n`` points."""
-    return random_cloud(n, Box.from_bounds(config.box), rng=np.random.default_rng([config.seed, n, SCALE_STREAM]))
+    return random_cloud(
+        n, Box.from_bounds(config.box), rng=np.random.default_rng([config.seed, n, SCALE_STREAM])
+    )
 
 
 #: The file sizes of the scale sweep, in the order of its data (see :func:`scale_file_size`).
@@ -470,6 +476,8 @@ def scale_file_size(config: Table1Config, workdir: str, job: tuple[int, str]) ->
     A function of its arguments alone, so that it runs the same in any process.
     """
     n, method = job
+    # each file builds its own surface: the three files of 1e6 points then run in parallel
+    # (the largest jobs), for one extra ADT each (0.3 s at 1e6)
     cloud = _scale_cloud(config, n)
     surface = adt(cloud)
     if method == SCALE_FILES[0]:
@@ -511,7 +519,7 @@ def _scale_sweep(config: Table1Config, progress: Progress, workdir: Path, worker
     with _worker_pool(workers) as pool:
         # largest first, so that the longest jobs do not start last
         order = sorted(files, key=lambda job: -job[0])
-        measured = _mapped(pool, partial(scale_file_size, config, str(workdir)), order, 1)
+        measured = ordered_map(pool, partial(scale_file_size, config, str(workdir)), order, 1)
         for job, row in zip(order, progress(measured, "scale sweep: file sizes", len(order))):
             sizes[job[0]].append(row)
     rows = []
