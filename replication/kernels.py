@@ -94,13 +94,17 @@ def _triangulation() -> None:
     """The sweep-hull triangulator and the NURBS gridding."""
     import numpy as np
 
-    from replication.surfaces import _raster, _triangulate, adt, random_cloud
+    from replication.surfaces import _blocks, _moments, _raster, _triangulate, adt, random_cloud
     from replication.surfaces._threads import frozen
     from replication.surfaces.nurbs import fit_nurbs
 
     cloud = random_cloud(64, rng=0)
     lattice = random_cloud(64, step=1.0, rng=0)
     for points in (cloud, lattice):
+        # numba's own one-call kernels for small clouds: once loaded they serve every later
+        # call instead of the ahead-of-time ones (replication._aot)
+        _blocks.single(frozen(points, np.float64), 0, 1)
+        _moments._small(frozen(points, np.float64), np.empty(3))
         surface = adt(points)  # the one-call path for small clouds
         adt(points, backend="scipy")  # the hash grouping
         for levels in (0, 1):  # one block (general path), and blocks with merges and partition

@@ -1,8 +1,8 @@
-"""Validation and column spreads of a point cloud in two passes, without temporaries (numba).
+"""Validation and column spreads of a point cloud in two passes, without temporaries.
 
 ``np.std(cloud, axis=0)`` allocates a full-size array of deviations (0.24 GB for 1e7
 points) and takes as long as a third of the triangulation at 1e6 points. These kernels read
-the cloud twice (means, then squared deviations), summing in blocks of ``_BLOCK`` values
+the cloud twice (means, then squared deviations, :mod:`._moments`), summing in blocks of ``_BLOCK`` values
 whose partial sums are added in order, so the rounding error grows like ``_BLOCK + n /
 _BLOCK`` units of the last place instead of n; the result does not depend on any thread
 count. They also tell whether every coordinate is finite.
@@ -13,74 +13,18 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike
 
+from replication import _aot
 from replication.errors import InputError
 from replication.surfaces._threads import frozen
 from replication.surfaces.cloud import as_cloud
 
 __all__ = ["column_spreads", "validated_cloud"]
 
-_BLOCK = 1024
 #: Clouds of at least this many points are summed in ``_CHUNKS`` pieces, on several threads.
 _PARALLEL_MIN = 200_000
 _CHUNKS = 4
-
-
-@njit(cache=True, nogil=True)
-def _sums(points, lo, hi, out):
-    """Column sums of rows lo..hi-1 (in blocks of ``_BLOCK`` rows)."""
-    k = points.shape[1]
-    part = np.zeros(k)
-    for c in range(k):
-        out[c] = 0.0
-    for i in range(lo, hi):
-        for c in range(k):
-            part[c] += points[i, c]
-        if (i - lo + 1) % _BLOCK == 0:
-            for c in range(k):
-                out[c] += part[c]
-                part[c] = 0.0
-    for c in range(k):
-        out[c] += part[c]
-
-
-@njit(cache=True, nogil=True)
-def _squares(points, lo, hi, mean, out):
-    """Column sums of squared deviations from ``mean`` of rows lo..hi-1 (in blocks)."""
-    k = points.shape[1]
-    part = np.zeros(k)
-    for c in range(k):
-        out[c] = 0.0
-    for i in range(lo, hi):
-        for c in range(k):
-            d = points[i, c] - mean[c]
-            part[c] += d * d
-        if (i - lo + 1) % _BLOCK == 0:
-            for c in range(k):
-                out[c] += part[c]
-                part[c] = 0.0
-    for c in range(k):
-        out[c] += part[c]
-
-
-@njit(cache=True, nogil=True)
-def _small(points, out):
-    """Spreads of a small array in one call; returns whether the means are finite."""
-    k = points.shape[1]
-    n = points.shape[0]
-    zero = np.int64(0)  # not a literal: one compiled signature of the kernels
-    _sums(points, zero, n, out)
-    mean = np.empty(k)
-    finite = True
-    for c in range(k):
-        mean[c] = out[c] / n
-        finite = finite and np.isfinite(mean[c])
-    _squares(points, zero, n, mean, out)
-    for c in range(k):
-        out[c] = np.sqrt(out[c] / n)
-    return finite
 
 
 def column_spreads(points: np.ndarray) -> tuple[np.ndarray, bool]:
@@ -91,13 +35,14 @@ def column_spreads(points: np.ndarray) -> tuple[np.ndarray, bool]:
     pieces whose sums are added in order, on several threads: the result does not depend on
     the thread count.
     """
-    from replication.surfaces._threads import run
-
     points = frozen(points)
     n, k = points.shape
     if n < _PARALLEL_MIN:
         out = np.empty(k)
-        return out, _small(points, out)
+        return out, bool(_aot.kernel("column_spreads")(points, out))
+    from replication.surfaces._moments import _squares, _sums
+    from replication.surfaces._threads import run
+
     chunks = _CHUNKS
     edges = [n * c // chunks for c in range(chunks + 1)]
     out = np.zeros((chunks, k))

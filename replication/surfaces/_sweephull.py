@@ -31,12 +31,20 @@ import numpy as np
 from numba import njit
 
 from replication.surfaces._predicates import incircle, orient
+from replication.surfaces._status import STATUS_COLLINEAR, STATUS_OK, STATUS_SKIPPED
 
-__all__ = ["flip_if_illegal", "incircle", "legalize", "link", "orient", "seed_triangle", "sweep"]
-
-STATUS_OK = 0
-STATUS_COLLINEAR = 1
-STATUS_SKIPPED = 2
+__all__ = [
+    "STATUS_COLLINEAR",
+    "STATUS_OK",
+    "STATUS_SKIPPED",
+    "flip_if_illegal",
+    "incircle",
+    "legalize",
+    "link",
+    "orient",
+    "seed_triangle",
+    "sweep",
+]
 
 
 @njit(cache=True, inline="always")

@@ -25,7 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from replication.surfaces import _blocks, _mergehull, _partition, _sweephull
+from replication import _aot
+from replication.surfaces._status import STATUS_COLLINEAR, STATUS_OK, STATUS_SKIPPED
 from replication.surfaces._threads import frozen
 from replication.surfaces._threads import run as _run
 
@@ -74,6 +75,8 @@ class _Join:
         self.used = self.vertex = -1
 
     def __call__(self) -> _Join:
+        from replication.surfaces import _mergehull
+
         xy, _, tri, he, hull = self.shared
         self.used, self.vertex = _mergehull.merge(
             xy, tri, he, hull, self.left, self.right, self.slots, self.horizontal
@@ -96,17 +99,28 @@ def triangulate(
         defeated the sweep) the cloud is triangulated again as one block.
     """
     points = frozen(points, np.float64)
-    levels = _partition.levels(points.shape[0]) if blocks is None else int(blocks).bit_length() - 1
-    if levels == 0 and 3 <= points.shape[0] <= SMALL:
-        status, triangles, neighbors, hull, dup, rep = _blocks.single(points, int(axes[0]), int(axes[1]))
+    n = points.shape[0]
+    if blocks is None:  # a small cloud is one block (SMALL < _partition.PARALLEL_MIN, tested)
+        levels = 0 if n <= SMALL else _levels(n)
+    else:
+        levels = int(blocks).bit_length() - 1
+    if levels == 0 and 3 <= n <= SMALL:
+        single = _aot.kernel("single")  # compiled at install time, or numba's (see replication._aot)
+        status, triangles, neighbors, hull, dup, rep = single(points, int(axes[0]), int(axes[1]))
         if dup.shape[0] > 1:
             order = np.argsort(dup)
             dup, rep = dup[order], rep[order]
         return Triangulation(triangles, neighbors, hull, dup, rep, status, 1)
     result = _triangulate(points, axes, levels)
-    if result.status != _sweephull.STATUS_OK and result.blocks > 1:
+    if result.status != STATUS_OK and result.blocks > 1:
         result = _triangulate(points, axes, 0)
     return result
+
+
+def _levels(n: int) -> int:
+    from replication.surfaces import _partition
+
+    return _partition.levels(n)
 
 
 def _failed(dtype, status: int, blocks: int) -> Triangulation:
@@ -115,12 +129,14 @@ def _failed(dtype, status: int, blocks: int) -> Triangulation:
 
 
 def _triangulate(points: np.ndarray, axes: tuple[int, int], levels: int) -> Triangulation:
+    from replication.surfaces import _blocks, _mergehull, _partition  # numba: imported when used
+
     n = points.shape[0]
     dtype = np.int32 if n <= _INT32_MAX_POINTS else np.int64
     ua, va = int(axes[0]), int(axes[1])
     blocks = 1 << levels
     if n < 3:
-        return _failed(dtype, _sweephull.STATUS_COLLINEAR, 1)
+        return _failed(dtype, STATUS_COLLINEAR, 1)
     idx = np.empty(n, dtype=dtype)
     xy = np.empty((n, 2))  # the blocks' points, then (block by block) the distinct points in sweep order
     if levels:
@@ -128,7 +144,7 @@ def _triangulate(points: np.ndarray, axes: tuple[int, int], levels: int) -> Tria
         cuts = _partition.kd_cuts(points[::step][:, [ua, va]], levels)
         starts = _partition.assign(points, (ua, va), cuts, levels, idx, xy)
         if np.diff(starts).min() < 3:
-            return _failed(dtype, _sweephull.STATUS_COLLINEAR, blocks)
+            return _failed(dtype, STATUS_COLLINEAR, blocks)
     else:
         _partition.columns(points, ua, va, idx, xy)
         starts = np.array([0, n])
@@ -144,7 +160,7 @@ def _triangulate(points: np.ndarray, axes: tuple[int, int], levels: int) -> Tria
                    for b in range(blocks)])  # fmt: skip
     del idx
     status = max(p.status for p in parts)
-    if status != _sweephull.STATUS_OK:
+    if status != STATUS_OK:
         return _failed(dtype, status, blocks)
     n_tri = sum(p.n_tri for p in parts)
     # merges up the k-d tree: node j (heap order) joins its children 2j and 2j + 1
@@ -166,7 +182,7 @@ def _triangulate(points: np.ndarray, axes: tuple[int, int], levels: int) -> Tria
         _mergehull.compact(tri, he, free[1], n_tri)
     ring = _mergehull.hull_cycle(vertex[root], hull[0])
     if n_tri != 2 * sum(p.count for p in parts) - 2 - ring.shape[0]:  # Euler: a point is no vertex
-        return _failed(dtype, _sweephull.STATUS_SKIPPED, blocks)
+        return _failed(dtype, STATUS_SKIPPED, blocks)
     del xy, hull
     end = 3 * n_tri
     cut = (end // 6) * 3
@@ -194,7 +210,7 @@ def _triangulate(points: np.ndarray, axes: tuple[int, int], levels: int) -> Tria
         hull=inp[ring],
         duplicates=dup,
         representatives=rep,
-        status=_sweephull.STATUS_OK,
+        status=STATUS_OK,
         blocks=blocks,
         order=order,
     )

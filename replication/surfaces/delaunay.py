@@ -136,13 +136,13 @@ def planar_delaunay(points: np.ndarray, axes: tuple[int, int] = (0, 1), *, backe
     if backend not in BACKENDS:
         raise InputError(f"unknown triangulation backend {backend!r}; choose one of {BACKENDS}")
     if backend != "scipy":
-        from replication.surfaces import _sweephull
+        from replication.surfaces._status import STATUS_COLLINEAR, STATUS_OK
         from replication.surfaces._triangulate import triangulate
 
         result = triangulate(points, axes)
-        if result.status == _sweephull.STATUS_OK:
+        if result.status == STATUS_OK:
             return result, "sweephull"
-        if result.status == _sweephull.STATUS_COLLINEAR:
+        if result.status == STATUS_COLLINEAR:
             raise _too_few_or_collinear(points, axes)
         # rounding defeated the sweep; Qhull is slower but handles it
     return _qhull(points, axes), "scipy"

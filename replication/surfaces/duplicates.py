@@ -13,7 +13,6 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from numba import njit
 
 from replication.errors import DuplicatePointsWarning, InputError, shown
 
@@ -29,41 +28,6 @@ __all__ = [
 
 DuplicatePolicy = Literal["mean", "min", "max", "first", "raise"]
 DUPLICATE_POLICIES: tuple[str, ...] = ("mean", "min", "max", "first", "raise")
-
-_M1 = np.uint64(0x9E3779B97F4A7C15)
-_M2 = np.uint64(0xC2B2AE3D27D4EB4F)
-_SHIFT = np.uint64(31)
-
-
-@njit(cache=True)
-def _group_bits(ubits, vbits):
-    n = ubits.shape[0]
-    size = 1
-    while size < 2 * n:
-        size *= 2
-    mask = np.uint64(size - 1)
-    table = np.full(size, -1, dtype=np.int64)  # slot -> group id
-    group = np.empty(n, dtype=np.int64)
-    first = np.empty(n, dtype=np.int64)
-    n_groups = 0
-    for i in range(n):
-        h = ubits[i] * _M1 ^ vbits[i] * _M2
-        h ^= h >> _SHIFT
-        slot = h & mask
-        while True:
-            g = table[slot]
-            if g == -1:
-                table[slot] = n_groups
-                group[i] = n_groups
-                first[n_groups] = i
-                n_groups += 1
-                break
-            j = first[g]
-            if ubits[j] == ubits[i] and vbits[j] == vbits[i]:
-                group[i] = g
-                break
-            slot = (slot + np.uint64(1)) & mask
-    return group, first[:n_groups].copy()
 
 
 def group_positions(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -90,6 +54,8 @@ def group_positions(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarra
     # adding 0.0 turns -0.0 into +0.0 so that equal values have equal bits
     ubits = np.ascontiguousarray(np.asarray(u, dtype=np.float64) + 0.0).view(np.uint64)
     vbits = np.ascontiguousarray(np.asarray(v, dtype=np.float64) + 0.0).view(np.uint64)
+    from replication.surfaces._grouping import _group_bits  # numba: imported when used
+
     return _group_bits(ubits, vbits)
 
 

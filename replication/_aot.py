@@ -1,0 +1,176 @@
+"""Kernels compiled ahead of time, when the package is built, for commands that must start at once.
+
+A command that triangulates a small cloud spends almost all its time starting numba: importing
+it (0.3 s), setting up its compiler target (0.5 s, which imports scipy.linalg), and, the first
+time in a fresh environment, compiling the triangulator (12 s; numba re-optimises the whole
+call tree of every compiled function, so deep kernels compile slowly). The package's build
+(``setup.py``) therefore compiles the kernels listed in :data:`KERNELS` with ``numba.pycc``
+into a small extension module, ``_replication_kernels``, that needs only numpy at run time.
+It is a top-level module so that a checkout run from its own directory (the test suite) finds
+the installed one; it is compiled for the CPU of the machine that builds it.
+
+Which code serves a call of :func:`kernel` (the choice never changes a result: both are
+compiled from the same Python source and agree bit for bit, which the tests check):
+
+1. numba's JIT kernel when it is already loaded in this process (after
+   :func:`replication.kernels.warm_up`, or after any earlier call compiled or loaded it):
+   once numba's start-up is paid for, its code is the faster one (52 against 70 us for a
+   200-point triangulation on this project's machine: numba's JIT removes reference counting
+   that the ahead-of-time code keeps);
+2. otherwise the ahead-of-time kernel, when the extension module exists and was built from
+   these very sources (a digest of them is compiled into it, so an edited checkout never runs
+   stale code);
+3. otherwise numba's JIT kernel, loaded from numba's cache or compiled.
+
+Setting the environment variable ``REPLICATION_AOT=0`` skips step 2. When the build could not
+compile the module (no C compiler, say), everything works as before through numba alone.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import importlib
+import operator
+import os
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+
+__all__ = ["KERNELS", "MODULE", "Kernel", "compiled", "kernel", "source_digest"]
+
+#: Name of the extension module that the build compiles.
+MODULE = "_replication_kernels"
+
+
+@dataclass(frozen=True)
+class Kernel:
+    """One ahead-of-time kernel: the numba function it is compiled from and its one signature.
+
+    Types are numba's spelling: ``float64[:, ::1]`` is a C-contiguous 2-D array (read-only
+    when followed by `` ro``), ``int64`` a scalar; ``returns`` lists a tuple's items or one
+    type.
+    """
+
+    module: str
+    function: str
+    args: tuple[str, ...]
+    returns: tuple[str, ...]
+
+
+#: The kernels compiled ahead of time, by the name :func:`kernel` knows them by: those of
+#: ``adt()`` on clouds of at most ``_triangulate.SMALL`` points (the ``replication adt``
+#: command on a typical cloud).
+KERNELS: dict[str, Kernel] = {
+    "single": Kernel(
+        "replication.surfaces._blocks",
+        "single",
+        ("float64[:, ::1] ro", "int64", "int64"),
+        ("int64", "int32[:, ::1]", "int32[:, ::1]", "int32[::1]", "int32[::1]", "int32[::1]"),
+    ),
+    "column_spreads": Kernel(
+        "replication.surfaces._moments",
+        "_small",
+        ("float64[:, ::1] ro", "float64[::1]"),
+        ("boolean",),
+    ),
+}
+
+
+def source_digest() -> int:
+    """A 60-bit digest of the sources the ahead-of-time kernels are compiled from.
+
+    Every private module of :mod:`replication.surfaces` (where all kernels and their callees
+    live) and the kernel table: more than the kernels need, so that no edit is missed.
+    """
+    root = Path(__file__).resolve().parent / "surfaces"
+    h = hashlib.sha256(repr(sorted(KERNELS.items())).encode())
+    for path in sorted(root.glob("_*.py")):
+        h.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    return int(h.hexdigest()[:15], 16)
+
+
+@functools.cache
+def compiled() -> ModuleType | None:
+    """The ahead-of-time extension module, or None when it is missing, disabled or stale."""
+    if os.environ.get("REPLICATION_AOT", "1").strip() == "0":
+        return None
+    try:
+        module = importlib.import_module(MODULE)
+    except ImportError:
+        return None
+    if module.source_digest() != source_digest():
+        return None  # built from other sources: an edited checkout
+    return module
+
+
+def kernel(name: str) -> Callable:
+    """The code to call for kernel ``name`` of :data:`KERNELS` (see the module notes)."""
+    spec = KERNELS[name]
+    jit_module = sys.modules.get(spec.module)
+    if jit_module is not None:
+        dispatcher = getattr(jit_module, spec.function)
+        if dispatcher.signatures:  # loaded in this process: numba's start-up is paid
+            return dispatcher
+    module = compiled()
+    if module is not None:
+        return _checked(name)
+    return getattr(importlib.import_module(spec.module), spec.function)
+
+
+@functools.cache
+def _checked(name: str) -> Callable:
+    """The ahead-of-time kernel behind a check of its arguments' types.
+
+    The compiled wrapper trusts its declared types (a float32 array would be read as float64
+    and could crash the interpreter), so each array is checked for dtype, dimensions,
+    C-contiguity and, for outputs, writability; each integer for being one.
+    """
+    spec = KERNELS[name]
+    function = getattr(compiled(), name)
+    checks = tuple(_parse(arg) for arg in spec.args)
+
+    def call(*args):
+        if len(args) != len(checks):
+            raise TypeError(f"kernel {name!r} takes {len(checks)} arguments, not {len(args)}")
+        for i, (value, (dtype, ndim, readonly)) in enumerate(zip(args, checks)):
+            if dtype is None:
+                operator.index(value)
+            elif not (
+                isinstance(value, np.ndarray)
+                and value.dtype == dtype
+                and value.ndim == ndim
+                and value.flags.c_contiguous
+                and value.flags.aligned
+                and (readonly or value.flags.writeable)
+            ):
+                raise TypeError(
+                    f"kernel {name!r}: argument {i} must be a C-contiguous "
+                    f"{'' if readonly else 'writable '}{ndim}-D {dtype} array, not {_describe(value)}"
+                )
+        return function(*args)
+
+    call.__name__ = call.__qualname__ = name
+    call.__doc__ = f"Ahead-of-time {spec.module}.{spec.function} (argument types checked)."
+    return call
+
+
+def _parse(arg: str) -> tuple[np.dtype | None, int, bool]:
+    """``(dtype, ndim, readonly)`` of an array type of :class:`Kernel`; dtype None: an integer."""
+    readonly = arg.endswith(" ro")
+    text = arg.removesuffix(" ro")
+    if "[" not in text:
+        return None, 0, False
+    base, dims = text.split("[", 1)
+    return np.dtype(base), dims.count(",") + 1, readonly
+
+
+def _describe(value) -> str:
+    if isinstance(value, np.ndarray):
+        layout = "C-contiguous" if value.flags.c_contiguous else "non-contiguous"
+        return f"a {layout} {value.ndim}-D {value.dtype} array"
+    return type(value).__name__

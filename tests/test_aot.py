@@ -1,0 +1,179 @@
+"""The ahead-of-time kernels (issue 15 item 2): same results as numba's, never stale, never unsafe.
+
+The extension module is built by ``pip install`` (setup.py); tests that run its code skip where
+it was not built, except in CI, whose install must build it.
+"""
+
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from replication import _aot
+from replication.surfaces import _blocks, _moments, _partition, _triangulate
+from replication.surfaces._threads import frozen
+
+BUILT = _aot.compiled() is not None
+needs_module = pytest.mark.skipif(not BUILT, reason="the ahead-of-time kernels were not built here")
+
+
+def test_ci_installs_the_compiled_kernels():
+    if not os.environ.get("CI"):
+        pytest.skip("only CI promises a build machine with a C compiler")
+    assert BUILT, "pip install built no ahead-of-time kernels (see setup.py's build output)"
+
+
+def _same_single(points: np.ndarray, axes=(0, 1)) -> None:
+    points = frozen(points, np.float64)
+    ahead = _aot._checked("single")(points, *axes)
+    jit = _blocks.single(points, *axes)
+    assert ahead[0] == jit[0]
+    for a, b in zip(ahead[1:], jit[1:]):
+        assert a.dtype == b.dtype == np.int32
+        np.testing.assert_array_equal(a, b)
+
+
+@needs_module
+@given(
+    n=st.integers(3, 300),
+    lattice=st.booleans(),
+    repeats=st.integers(0, 20),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_single_matches_numba_on_random_lattice_and_repeated_points(n, lattice, repeats, seed):
+    rng = np.random.default_rng(seed)
+    points = rng.integers(0, 6, (n, 3)).astype(float) if lattice else rng.normal(size=(n, 3))
+    if repeats:
+        points = np.vstack([points, points[rng.integers(0, n, repeats)]])
+    _same_single(points, axes=tuple(rng.permutation(3)[:2]))
+
+
+@needs_module
+def test_single_matches_numba_on_collinear_and_overflowing_clouds():
+    line = np.column_stack([np.arange(10.0), 2 * np.arange(10.0), np.zeros(10)])
+    _same_single(line)  # STATUS_COLLINEAR
+    huge = np.array([[0.0, 0.0, 0], [1e308, 0, 0], [0, 1e308, 0], [1e308, 1e308, 0]])
+    _same_single(huge)
+
+
+@needs_module
+@given(rows=st.integers(1, 500), seed=st.integers(0, 2**32 - 1), bad=st.sampled_from([None, np.nan, np.inf]))
+def test_column_spreads_kernel_matches_numba(rows, seed, bad):
+    points = np.random.default_rng(seed).normal(size=(rows, 3)) * 1e3
+    if bad is not None:
+        points[rows // 2, 1] = bad
+    points = frozen(points)
+    ahead, jit = np.empty(3), np.empty(3)
+    assert _aot._checked("column_spreads")(points, ahead) == _moments._small(points, jit)
+    np.testing.assert_array_equal(ahead, jit)
+
+
+@needs_module
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (
+            (np.zeros((5, 3), np.float32), 0, 1),
+            "argument 0 must be a C-contiguous 2-D float64 array, not a C-contiguous 2-D float32 array",
+        ),  # fmt: skip
+        ((np.zeros((5, 6))[:, ::2], 0, 1), "not a non-contiguous 2-D float64 array"),
+        ((np.zeros(5), 0, 1), "not a C-contiguous 1-D float64 array"),
+        ((np.zeros((5, 3)), 0.5, 1), "'float' object cannot be interpreted as an integer"),
+        ((np.zeros((5, 3)), 0), "takes 3 arguments, not 2"),
+    ],
+)
+def test_bad_arguments_raise_instead_of_crashing(args, message):
+    with pytest.raises(TypeError, match=message.replace("(", r"\(")):
+        _aot._checked("single")(*args)
+
+
+@needs_module
+def test_outputs_must_be_writable():
+    out = np.empty(3)
+    out.flags.writeable = False
+    with pytest.raises(TypeError, match="writable 1-D float64"):
+        _aot._checked("column_spreads")(frozen(np.ones((4, 3))), out)
+
+
+def test_a_module_built_from_other_sources_is_never_used(monkeypatch):
+    monkeypatch.setattr(_aot, "source_digest", lambda: -1)
+    _aot.compiled.cache_clear()
+    try:
+        assert _aot.compiled() is None
+    finally:
+        monkeypatch.undo()
+        _aot.compiled.cache_clear()
+    assert (_aot.compiled() is not None) == BUILT
+
+
+def test_environment_variable_disables_the_module(monkeypatch):
+    monkeypatch.setenv("REPLICATION_AOT", "0")
+    _aot.compiled.cache_clear()
+    try:
+        assert _aot.compiled() is None
+    finally:
+        monkeypatch.undo()
+        _aot.compiled.cache_clear()
+
+
+def test_digest_changes_with_any_kernel_source(tmp_path, monkeypatch):
+    package = tmp_path / "replication"
+    shutil.copytree(os.path.dirname(_aot.__file__) + "/surfaces", package / "surfaces")
+    shutil.copy(_aot.__file__, package / "_aot.py")
+    monkeypatch.setattr(_aot, "__file__", str(package / "_aot.py"))
+    before = _aot.source_digest()
+    assert before == _aot.source_digest()  # deterministic
+    predicates = package / "surfaces" / "_predicates.py"
+    predicates.write_text(predicates.read_text() + "\n")
+    assert _aot.source_digest() != before
+    (package / "surfaces" / "_new.py").write_text("")
+    assert len({before, _aot.source_digest()}) == 2
+
+
+def test_once_numba_has_loaded_a_kernel_it_serves_later_calls():
+    points = frozen(np.random.default_rng(0).normal(size=(20, 3)))
+    _blocks.single(points, 0, 1)  # loaded (the suite's warm-up did it already)
+    assert _aot.kernel("single") is _blocks.single
+
+
+def test_type_spelling_of_the_table():
+    from numba.core import types
+
+    from replication._aotbuild import _numba_type
+
+    assert _numba_type(types, "float64[:, ::1] ro") == types.Array(types.float64, 2, "C", readonly=True)
+    assert _numba_type(types, "int32[::1]") == types.Array(types.int32, 1, "C")
+    assert _numba_type(types, "int64") == types.int64
+    assert _aot._parse("float64[:, ::1] ro") == (np.dtype(np.float64), 2, True)
+    assert _aot._parse("float64[::1]") == (np.dtype(np.float64), 1, False)
+    assert _aot._parse("int64") == (None, 0, False)
+
+
+def test_small_clouds_are_one_block_so_the_one_call_path_needs_no_partition():
+    assert _triangulate.SMALL < _partition.PARALLEL_MIN
+    assert _partition.levels(_triangulate.SMALL) == 0
+
+
+@needs_module
+def test_adt_command_runs_without_numba_and_writes_the_same_file(tmp_path):
+    def run(name: str, aot: str) -> tuple[str, bytes]:
+        out = tmp_path / name
+        code = (
+            "import sys\nfrom replication.cli import main\n"
+            f"assert main(['adt', '--random', '300', '--seed', '4', '-o', {str(out)!r}]) == 0\n"
+            "print('numba' in sys.modules, 'scipy' in sys.modules)"
+        )
+        env = dict(os.environ, REPLICATION_AOT=aot)
+        command = [sys.executable, "-c", code]
+        done = subprocess.run(command, capture_output=True, text=True, env=env, check=True)
+        return done.stdout.splitlines()[-1], out.read_bytes()
+
+    (loaded_aot, ahead), (loaded_jit, jit) = run("aot.vtk", "1"), run("jit.vtk", "0")
+    assert loaded_aot == "False False"
+    assert loaded_jit.startswith("True")
+    assert ahead == jit
