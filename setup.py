@@ -30,8 +30,9 @@ class BuildKernels(build_ext):
     def _build(self, ext: Extension) -> bool:
         target = os.path.abspath(self.get_ext_fullpath(ext.name))
         with tempfile.TemporaryDirectory(prefix="replication-numba-cache-") as cache:
-            env = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=HERE)
-            command = [sys.executable, "-m", "replication._aotbuild", target]
+            # the environment is passed on whole: pip's isolated build finds numba through it
+            env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+            command = [sys.executable, "-m", "replication._aotbuild", target]  # -m: imports from HERE
             try:
                 done = subprocess.run(command, cwd=HERE, env=env, check=False).returncode == 0
             except OSError as exc:
