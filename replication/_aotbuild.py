@@ -1,8 +1,10 @@
 """Compile the ahead-of-time kernels of :mod:`replication._aot` into their extension module.
 
 Run by the package's build (``setup.py``) as ``python -m replication._aotbuild OUT``, where
-OUT is the extension module's file; a developer who edited a kernel runs the same command (or
-reinstalls) to rebuild it, since a module built from other sources is never used. Needs numba,
+OUT is the extension module's file. A developer who edited a kernel runs
+``python -m replication._aotbuild`` (or reinstalls) to rebuild it, since a module built from
+other sources is never used: without OUT it goes beside the package, where an editable install
+keeps it. Needs numba,
 numpy and a C compiler; compiling takes about 10-20 s of one core.
 """
 
@@ -15,7 +17,7 @@ from pathlib import Path
 
 from replication._aot import KERNELS, MODULE, source_digest
 
-__all__ = ["build", "main"]
+__all__ = ["build", "default_target", "main"]
 
 
 def build(target: Path) -> None:
@@ -90,18 +92,26 @@ def _constant(value: int) -> Callable:
     return constant
 
 
+def default_target() -> Path:
+    """The extension module's file beside the package (a checkout's root, or site-packages)."""
+    import sysconfig
+
+    return Path(__file__).resolve().parents[1] / (MODULE + sysconfig.get_config_var("EXT_SUFFIX"))
+
+
 def main(argv: list[str] | None = None) -> int:
-    """``python -m replication._aotbuild OUT``: build, then print one line; exit 1 on failure."""
+    """``python -m replication._aotbuild [OUT]``: build, then print one line; exit 1 on failure."""
     args = sys.argv[1:] if argv is None else argv
-    if len(args) != 1:
-        print("usage: python -m replication._aotbuild OUT  (the extension module's file)", file=sys.stderr)
+    if len(args) > 1 or any(a.startswith("-") for a in args):
+        print("usage: python -m replication._aotbuild [OUT]  (the extension module's file)", file=sys.stderr)
         return 2
+    target = Path(args[0]) if args else default_target()
     try:
-        build(Path(args[0]))
+        build(target)
     except Exception as exc:  # noqa: BLE001 - a build step reports any failure in one line
         print(f"replication: ahead-of-time kernels not built ({type(exc).__name__}: {exc})", file=sys.stderr)
         return 1
-    print(f"replication: ahead-of-time kernels built into {args[0]}")
+    print(f"replication: ahead-of-time kernels built into {target}")
     return 0
 
 
