@@ -7,22 +7,27 @@ call tree of every compiled function, so deep kernels compile slowly). The packa
 (``setup.py``) therefore compiles the kernels listed in :data:`KERNELS` with ``numba.pycc``
 into a small extension module, ``_replication_kernels``, that needs only numpy at run time.
 It is a top-level module so that a checkout run from its own directory (the test suite) finds
-the installed one; it is compiled for the CPU of the machine that builds it.
+the installed one; its code is generic for the architecture (x86-64, say), not tuned to the
+building machine's CPU, so an install copied to another machine still runs. Unlike numba's
+kernels it holds the GIL while it runs: threads calling ``adt()`` on small clouds take turns
+until numba is loaded.
 
 Which code serves a call of :func:`kernel` (the choice never changes a result: both are
 compiled from the same Python source and agree bit for bit, which the tests check):
 
 1. numba's JIT kernel when it is already loaded in this process (after
    :func:`replication.kernels.warm_up`, or after any earlier call compiled or loaded it):
-   once numba's start-up is paid for, its code is the faster one (52 against 70 us for a
+   once numba's start-up is paid for, its code is the faster one (52 against 75 us for a
    200-point triangulation on this project's machine: numba's JIT removes reference counting
    that the ahead-of-time code keeps);
 2. otherwise the ahead-of-time kernel, when the extension module exists and was built from
    these very sources (a digest of them is compiled into it, so an edited checkout never runs
    stale code);
-3. otherwise numba's JIT kernel, loaded from numba's cache or compiled.
+3. otherwise numba's JIT kernel, loaded from numba's cache or compiled. Arguments of other
+   types than the compiled ones (a misaligned array, say) go to it too.
 
-Setting the environment variable ``REPLICATION_AOT=0`` skips step 2. When the build could not
+Setting the environment variable ``REPLICATION_AOT=0`` skips step 2 (it is read once, on the
+first call that needs the module). When the build could not
 compile the module (no C compiler, say), everything works as before through numba alone.
 """
 
@@ -31,7 +36,6 @@ from __future__ import annotations
 import functools
 import hashlib
 import importlib
-import operator
 import os
 import sys
 from collections.abc import Callable
@@ -84,19 +88,31 @@ KERNELS: dict[str, Kernel] = {
 def source_digest() -> int:
     """A 60-bit digest of the sources the ahead-of-time kernels are compiled from.
 
-    Every private module of :mod:`replication.surfaces` (where all kernels and their callees
-    live) and the kernel table: more than the kernels need, so that no edit is missed.
+    Returns
+    -------
+    int
+        A digest of the kernel table, the builder (``_aotbuild.py``) and every private module
+        of :mod:`replication.surfaces` (where all kernels and their callees live): more than
+        the kernels need, so that no edit is missed.
     """
-    root = Path(__file__).resolve().parent / "surfaces"
+    package = Path(__file__).resolve().parent
     h = hashlib.sha256(repr(sorted(KERNELS.items())).encode())
-    for path in sorted(root.glob("_*.py")):
+    for path in [package / "_aotbuild.py", *sorted((package / "surfaces").glob("_*.py"))]:
         h.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
     return int(h.hexdigest()[:15], 16)
 
 
 @functools.cache
 def compiled() -> ModuleType | None:
-    """The ahead-of-time extension module, or None when it is missing, disabled or stale."""
+    """The ahead-of-time extension module, or None when it is missing, disabled or stale.
+
+    Returns
+    -------
+    module or None
+        ``_replication_kernels`` when it imports and was built from the current sources
+        (:func:`source_digest`), unless ``REPLICATION_AOT=0``; the answer is kept for the
+        life of the process.
+    """
     if os.environ.get("REPLICATION_AOT", "1").strip() == "0":
         return None
     try:
@@ -109,16 +125,31 @@ def compiled() -> ModuleType | None:
 
 
 def kernel(name: str) -> Callable:
-    """The code to call for kernel ``name`` of :data:`KERNELS` (see the module notes)."""
+    """The code to call for a kernel (see the module notes for the choice).
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`KERNELS`.
+
+    Returns
+    -------
+    callable
+        numba's dispatcher, or the ahead-of-time function behind a check of its arguments.
+    """
     spec = KERNELS[name]
-    jit_module = sys.modules.get(spec.module)
-    if jit_module is not None:
-        dispatcher = getattr(jit_module, spec.function)
-        if dispatcher.signatures:  # loaded in this process: numba's start-up is paid
-            return dispatcher
-    module = compiled()
-    if module is not None:
+    jit_module = sys.modules.get(spec.module)  # may still be importing in another thread
+    dispatcher = getattr(jit_module, spec.function, None) if jit_module is not None else None
+    if getattr(dispatcher, "signatures", None):  # loaded in this process: numba's start-up is paid
+        return dispatcher
+    if compiled() is not None:
         return _checked(name)
+    return _jit(name)
+
+
+def _jit(name: str) -> Callable:
+    """numba's dispatcher of kernel ``name`` (importing its module, and numba)."""
+    spec = KERNELS[name]
     return getattr(importlib.import_module(spec.module), spec.function)
 
 
@@ -128,31 +159,18 @@ def _checked(name: str) -> Callable:
 
     The compiled wrapper trusts its declared types (a float32 array would be read as float64
     and could crash the interpreter), so each array is checked for dtype, dimensions,
-    C-contiguity and, for outputs, writability; each integer for being one.
+    C-contiguity, alignment and, for outputs, writability, and each integer for being one.
+    Arguments that fail go to numba's kernel, which compiles for any type it supports or
+    raises its own error: the answer never depends on which code ran.
     """
     spec = KERNELS[name]
     function = getattr(compiled(), name)
     checks = tuple(_parse(arg) for arg in spec.args)
 
     def call(*args):
-        if len(args) != len(checks):
-            raise TypeError(f"kernel {name!r} takes {len(checks)} arguments, not {len(args)}")
-        for i, (value, (dtype, ndim, readonly)) in enumerate(zip(args, checks)):
-            if dtype is None:
-                operator.index(value)
-            elif not (
-                isinstance(value, np.ndarray)
-                and value.dtype == dtype
-                and value.ndim == ndim
-                and value.flags.c_contiguous
-                and value.flags.aligned
-                and (readonly or value.flags.writeable)
-            ):
-                raise TypeError(
-                    f"kernel {name!r}: argument {i} must be a C-contiguous "
-                    f"{'' if readonly else 'writable '}{ndim}-D {dtype} array, not {_describe(value)}"
-                )
-        return function(*args)
+        if len(args) == len(checks) and all(_fits(v, c) for v, c in zip(args, checks)):
+            return function(*args)
+        return _jit(name)(*args)
 
     call.__name__ = call.__qualname__ = name
     call.__doc__ = f"Ahead-of-time {spec.module}.{spec.function} (argument types checked)."
@@ -169,8 +187,16 @@ def _parse(arg: str) -> tuple[np.dtype | None, int, bool]:
     return np.dtype(base), dims.count(",") + 1, readonly
 
 
-def _describe(value) -> str:
-    if isinstance(value, np.ndarray):
-        layout = "C-contiguous" if value.flags.c_contiguous else "non-contiguous"
-        return f"a {layout} {value.ndim}-D {value.dtype} array"
-    return type(value).__name__
+def _fits(value, check: tuple[np.dtype | None, int, bool]) -> bool:
+    """Whether ``value`` has the type of one argument of a compiled kernel (see :func:`_parse`)."""
+    dtype, ndim, readonly = check
+    if dtype is None:
+        return isinstance(value, int | np.integer) and not isinstance(value, bool)
+    return (
+        isinstance(value, np.ndarray)
+        and value.dtype == dtype
+        and value.ndim == ndim
+        and value.flags.c_contiguous
+        and value.flags.aligned
+        and (readonly or value.flags.writeable)
+    )

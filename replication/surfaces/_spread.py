@@ -1,11 +1,11 @@
 """Validation and column spreads of a point cloud in two passes, without temporaries.
 
 ``np.std(cloud, axis=0)`` allocates a full-size array of deviations (0.24 GB for 1e7
-points) and takes as long as a third of the triangulation at 1e6 points. These kernels read
-the cloud twice (means, then squared deviations, :mod:`._moments`), summing in blocks of ``_BLOCK`` values
-whose partial sums are added in order, so the rounding error grows like ``_BLOCK + n /
-_BLOCK`` units of the last place instead of n; the result does not depend on any thread
-count. They also tell whether every coordinate is finite.
+points) and takes as long as a third of the triangulation at 1e6 points. The kernels of
+:mod:`._moments` read the cloud twice (means, then squared deviations), summing in blocks
+whose partial sums are added in order, so the rounding error grows like the block size plus
+n over it, in units of the last place, instead of n; the result does not depend on any
+thread count. They also tell whether every coordinate is finite.
 """
 
 from __future__ import annotations

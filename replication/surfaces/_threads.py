@@ -22,13 +22,17 @@ _lock = threading.Lock()
 
 
 def frozen(a: np.ndarray, dtype=None) -> np.ndarray:
-    """``a`` as a C-contiguous read-only array (a view when it already is one).
+    """``a`` as a C-contiguous, aligned, read-only array (a view when it already is one).
 
-    numba compiles a separate version of a kernel for writable and read-only arrays; the
-    package's kernels take their inputs read-only (a Surface's arrays are), so each keeps
-    one compiled signature whoever calls it.
+    numba compiles a separate version of a kernel for writable and read-only arrays (and for
+    misaligned ones, which a buffer read at an odd offset gives); the package's kernels take
+    their inputs read-only and aligned (a Surface's arrays are), so each keeps one compiled
+    signature whoever calls it, and the ahead-of-time kernels (:mod:`replication._aot`) serve
+    every call.
     """
     a = np.ascontiguousarray(a, dtype=dtype)
+    if not a.flags.aligned:
+        a = a.copy()
     if a.flags.writeable:
         a = a.view()
         a.flags.writeable = False

@@ -46,7 +46,7 @@ class Triangulation:
     triangles[t, (k + 1) % 3]`` (-1 on the hull); ``hull`` lists the hull vertices
     counter-clockwise; ``duplicates`` and ``representatives`` pair every input point that
     repeats an earlier position with the first point at that position (sorted by the
-    duplicate's index). ``status`` is a :mod:`._sweephull` status; ``blocks`` their number.
+    duplicate's index). ``status`` is a :mod:`._status` code; ``blocks`` their number.
     ``order`` lists the distinct points (input indices) block by block, each block in sweep
     order: a spatially coherent numbering for kernels that visit every triangle.
     """
