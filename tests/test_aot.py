@@ -4,6 +4,7 @@ The extension module is built by ``pip install`` (setup.py); tests that run its 
 it was not built, except in CI, whose install must build it.
 """
 
+import contextlib
 import os
 import shutil
 import subprocess
@@ -114,25 +115,28 @@ def test_misaligned_clouds_are_copied_to_aligned_ones():
     np.testing.assert_array_equal(adt(odd).triangles, adt(cloud).triangles)
 
 
-def test_a_module_built_from_other_sources_is_never_used(monkeypatch):
-    monkeypatch.setattr(_aot, "source_digest", lambda: -1)
+@contextlib.contextmanager
+def _fresh_lookup(monkeypatch):
+    """``compiled()`` asked again under the patches made inside; the real answer after."""
     _aot.compiled.cache_clear()
     try:
-        assert _aot.compiled() is None
+        yield
     finally:
         monkeypatch.undo()
         _aot.compiled.cache_clear()
+
+
+def test_a_module_built_from_other_sources_is_never_used(monkeypatch):
+    with _fresh_lookup(monkeypatch):
+        monkeypatch.setattr(_aot, "source_digest", lambda: -1)
+        assert _aot.compiled() is None
     assert (_aot.compiled() is not None) == BUILT
 
 
 def test_environment_variable_disables_the_module(monkeypatch):
-    monkeypatch.setenv("REPLICATION_AOT", "0")
-    _aot.compiled.cache_clear()
-    try:
+    with _fresh_lookup(monkeypatch):
+        monkeypatch.setenv("REPLICATION_AOT", "0")
         assert _aot.compiled() is None
-    finally:
-        monkeypatch.undo()
-        _aot.compiled.cache_clear()
 
 
 def test_digest_changes_with_any_kernel_source(tmp_path, monkeypatch):
