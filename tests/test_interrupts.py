@@ -117,7 +117,7 @@ def interrupted(tmp_path_factory):
     for _, process, presser in started.values():  # after a failed check: stop what still runs
         if process.poll() is None:
             os.killpg(process.pid, signal.SIGKILL)
-            process.communicate()
+        process.communicate()  # closes the pipes of a case whose test did not run, too
         presser.join()
 
 
