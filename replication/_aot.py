@@ -45,7 +45,16 @@ from types import ModuleType
 
 import numpy as np
 
-__all__ = ["KERNELS", "MODULE", "Kernel", "compiled", "kernel", "source_digest"]
+__all__ = [
+    "KERNELS",
+    "MODULE",
+    "Kernel",
+    "compiled",
+    "kernel",
+    "load_numba",
+    "numba_signature",
+    "source_digest",
+]
 
 #: Name of the extension module that the build compiles.
 MODULE = "_replication_kernels"
@@ -66,9 +75,15 @@ class Kernel:
     returns: tuple[str, ...]
 
 
+#: Read-only argument types of the table: points (or queries), triangles (or their
+#: neighbours), indices, values.
+_CLOUD, _TRIANGLES = "float64[:, ::1] ro", "int32[:, ::1] ro"
+_INDEX, _VALUES = "int32[::1] ro", "float64[::1] ro"
+
 #: The kernels compiled ahead of time, by the name :func:`kernel` knows them by: those of
 #: ``adt()`` on clouds of at most ``_triangulate.SMALL`` points (the ``replication adt``
-#: command on a typical cloud).
+#: command on a typical cloud), and those of the NURBS baseline's gridding of a triangulation
+#: of fewer than ``_grid._PIECES_MIN`` triangles (``replication nurbs``).
 KERNELS: dict[str, Kernel] = {
     "single": Kernel(
         "replication.surfaces._blocks",
@@ -81,6 +96,46 @@ KERNELS: dict[str, Kernel] = {
         "_small",
         ("float64[:, ::1] ro", "float64[::1]"),
         ("boolean",),
+    ),
+    "raster": Kernel(
+        "replication.surfaces._raster",
+        "_raster",
+        (_CLOUD, _TRIANGLES, _VALUES, _VALUES, _VALUES, "int64", "int64", "int32[:, ::1]", "float64[:, ::1]"),
+        ("none",),
+    ),
+    "gather": Kernel(
+        "replication.surfaces._raster",
+        "_gather",
+        (
+            _CLOUD,
+            "int64[::1] ro",
+            _INDEX,
+            "int64",
+            "int64",
+            "int32[::1]",
+            "float64[:, ::1]",
+            "float64[::1]",
+            "float64[::1]",
+        ),
+        ("none",),
+    ),  # fmt: skip
+    "renumber": Kernel(
+        "replication.surfaces._raster",
+        "_renumber",
+        (_TRIANGLES, "int32[::1]", "int64", "int64", "int32[:, ::1]"),
+        ("none",),
+    ),
+    "exits": Kernel(
+        "replication.surfaces._walks",
+        "_exits",
+        (_CLOUD, _TRIANGLES, _TRIANGLES, _CLOUD, _INDEX, "int32[::1]"),
+        ("none",),
+    ),
+    "nearest": Kernel(
+        "replication.surfaces._walks",
+        "_nearest",
+        (_CLOUD, _TRIANGLES, _TRIANGLES, _CLOUD, _INDEX, _INDEX, "int32[::1]"),
+        ("none",),
     ),
 }
 
@@ -145,6 +200,34 @@ def kernel(name: str) -> Callable:
     if compiled() is not None:
         return _checked(name)
     return _jit(name)
+
+
+def numba_signature(spec: Kernel):
+    """numba's signature of a kernel of the table (imports numba)."""
+    from numba.core import types
+
+    def spelled(text: str):
+        readonly = text.endswith(" ro")
+        spelling = text.removesuffix(" ro")
+        if "[" not in spelling:
+            return getattr(types, spelling)
+        base, dims = spelling.split("[", 1)
+        layout = "C" if "::1" in dims else "A"
+        return types.Array(getattr(types, base), dims.count(",") + 1, layout, readonly=readonly)
+
+    returns = [spelled(t) for t in spec.returns]
+    result = types.Tuple(returns) if len(returns) > 1 else returns[0]
+    return result(*(spelled(a) for a in spec.args))
+
+
+def load_numba(name: str) -> None:
+    """Load (or compile) numba's kernel ``name`` for its one signature, without calling it.
+
+    From then on :func:`kernel` returns numba's code in this process (see the module notes):
+    :func:`replication.kernels.warm_up` does this for every kernel of the table, so that the
+    timed code and the code a large cloud's pieces run are numba's.
+    """
+    _jit(name).compile(numba_signature(KERNELS[name]))
 
 
 def _jit(name: str) -> Callable:

@@ -6,7 +6,7 @@ OUT is the extension module's file. A developer who edited a kernel runs
 other sources is never used: without OUT it goes beside the package, where an editable install
 keeps it.
 
-Needs numba, numpy and a C compiler; compiling takes about 15 s of one core.
+Needs numba, numpy and a C compiler; compiling takes about 20 s of one core.
 """
 
 from __future__ import annotations
@@ -35,6 +35,8 @@ def build(target: Path) -> None:
     from numba.core import types
     from numba.pycc import CC
 
+    from replication._aot import numba_signature
+
     target = Path(target).resolve()
     if not target.name.startswith(MODULE + "."):
         raise ValueError(f"the extension module's file must be named {MODULE}.<suffix>, not {target.name!r}")
@@ -46,10 +48,7 @@ def build(target: Path) -> None:
     # instruction its CPU lacks (host-specific code measured only 7 % faster)
     for name, spec in KERNELS.items():
         dispatcher = getattr(importlib.import_module(spec.module), spec.function)
-        returns = [_numba_type(types, t) for t in spec.returns]
-        result = types.Tuple(returns) if len(returns) > 1 else returns[0]
-        signature = result(*(_numba_type(types, a) for a in spec.args))
-        cc.export(name, signature)(_calling(dispatcher, len(spec.args)))
+        cc.export(name, numba_signature(spec))(_calling(dispatcher, len(spec.args)))
     cc.export("source_digest", types.int64())(_constant(source_digest()))
     with tempfile.TemporaryDirectory(prefix="replication-aot-") as scratch:
         tempfile.tempdir, saved = scratch, tempfile.tempdir  # pycc's own scratch goes in here
@@ -59,35 +58,17 @@ def build(target: Path) -> None:
             tempfile.tempdir = saved
 
 
-def _numba_type(types, text: str):
-    """numba type of a :class:`~replication._aot.Kernel` type string."""
-    readonly = text.endswith(" ro")
-    spelling = text.removesuffix(" ro")
-    if "[" not in spelling:
-        return getattr(types, spelling)
-    base, dims = spelling.split("[", 1)
-    ndim = dims.count(",") + 1
-    layout = "C" if "::1" in dims else "A"
-    return types.Array(getattr(types, base), ndim, layout, readonly=readonly)
-
-
 def _calling(dispatcher, arity: int) -> Callable:
-    """A function that only calls ``dispatcher``: exporting this wrapper, rather than the
-    kernel's Python function, compiles the kernel with its own options (``error_model`` and
-    the rest), as the JIT does."""
-    if arity == 2:
-
-        def call2(a, b):
-            return dispatcher(a, b)
-
-        return call2
-    if arity == 3:
-
-        def call3(a, b, c):
-            return dispatcher(a, b, c)
-
-        return call3
-    raise ValueError(f"no wrapper for kernels of {arity} arguments")
+    """A function of ``arity`` arguments that only calls ``dispatcher``: exporting this wrapper,
+    rather than the kernel's Python function, compiles the kernel with its own options
+    (``error_model`` and the rest), as the JIT does. numba compiles it from its bytecode, so it
+    is written out with named arguments (numba's export takes no ``*args``)."""
+    if not 1 <= arity <= 16:
+        raise ValueError(f"no wrapper for kernels of {arity} arguments")
+    names = ", ".join(f"a{k}" for k in range(arity))
+    namespace = {"dispatcher": dispatcher}
+    exec(f"def call({names}):\n    return dispatcher({names})\n", namespace)  # noqa: S102 - fixed text
+    return namespace["call"]
 
 
 def _constant(value: int) -> Callable:

@@ -94,23 +94,24 @@ def _triangulation() -> None:
     """The sweep-hull triangulator and the NURBS gridding."""
     import numpy as np
 
-    from replication.surfaces import _blocks, _moments, _raster, _triangulate, adt, random_cloud
+    from replication import _aot
+    from replication.surfaces import _grid, _raster, _triangulate, adt, random_cloud
     from replication.surfaces._threads import frozen
     from replication.surfaces.nurbs import fit_nurbs
 
+    for name in _aot.KERNELS:
+        # numba's own kernels of small clouds: once loaded they serve every later call
+        # instead of the ahead-of-time ones (replication._aot)
+        _aot.load_numba(name)
     cloud = random_cloud(64, rng=0)
     lattice = random_cloud(64, step=1.0, rng=0)
     for points in (cloud, lattice):
-        # numba's own one-call kernels for small clouds: once loaded they serve every later
-        # call instead of the ahead-of-time ones (replication._aot)
-        _blocks.single(frozen(points, np.float64), 0, 1)
-        _moments._small(frozen(points, np.float64), np.empty(3))
         surface = adt(points)  # the one-call path for small clouds
         adt(points, backend="scipy")  # the hash grouping
         for levels in (0, 1):  # one block (general path), and blocks with merges and partition
             _triangulate._triangulate(frozen(points, np.float64), (0, 1), levels)
-    owners = tuple(np.full((2, 2), -1, dtype=np.int32) for _ in range(_raster._RUNS))
-    _raster._combine(owners, tuple(np.zeros((2, 2)) for _ in range(_raster._RUNS)), 0, 2)
+    owners = tuple(np.full((2, 2), -1, dtype=np.int32) for _ in range(_grid._RUNS))
+    _raster._combine(owners, tuple(np.zeros((2, 2)) for _ in range(_grid._RUNS)), 0, 2)
     fit_nurbs(cloud, evaluator="fast", triangulation=surface, tessellation=(4, 4))
 
 

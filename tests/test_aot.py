@@ -9,6 +9,7 @@ import os
 import shutil
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from replication import _aot
+from replication.errors import DuplicatePointsWarning
 from replication.surfaces import _blocks, _moments, _partition, _triangulate
 from replication.surfaces._threads import frozen
 
@@ -178,11 +180,16 @@ def test_once_numba_has_loaded_a_kernel_it_serves_later_calls():
 def test_type_spelling_of_the_table():
     from numba.core import types
 
-    from replication._aotbuild import _numba_type
+    def spelled(text):
+        return _aot.numba_signature(_aot.Kernel("", "", (text,), ("none",))).args[0]
 
-    assert _numba_type(types, "float64[:, ::1] ro") == types.Array(types.float64, 2, "C", readonly=True)
-    assert _numba_type(types, "int32[::1]") == types.Array(types.int32, 1, "C")
-    assert _numba_type(types, "int64") == types.int64
+    assert spelled("float64[:, ::1] ro") == types.Array(types.float64, 2, "C", readonly=True)
+    assert spelled("int32[::1]") == types.Array(types.int32, 1, "C")
+    assert spelled("int64") == types.int64
+    single = _aot.numba_signature(_aot.KERNELS["single"])
+    assert single.return_type == types.Tuple([types.int64, *[types.Array(types.int32, 2, "C")] * 2,
+                                              *[types.Array(types.int32, 1, "C")] * 3])  # fmt: skip
+    assert _aot.numba_signature(_aot.KERNELS["raster"]).return_type == types.none
     assert _aot._parse("float64[:, ::1] ro") == (np.dtype(np.float64), 2, True)
     assert _aot._parse("float64[::1]") == (np.dtype(np.float64), 1, False)
     assert _aot._parse("int64") == (None, 0, False)
@@ -193,21 +200,124 @@ def test_small_clouds_are_one_block_so_the_one_call_path_needs_no_partition():
     assert _partition.levels(_triangulate.SMALL) == 0
 
 
-@needs_module
-def test_adt_command_runs_without_numba_and_writes_the_same_file(tmp_path):
-    def run(name: str, aot: str) -> tuple[str, bytes]:
-        out = tmp_path / name
-        code = (
-            "import sys\nfrom replication.cli import main\n"
-            f"assert main(['adt', '--random', '300', '--seed', '4', '-o', {str(out)!r}]) == 0\n"
-            "print('numba' in sys.modules, 'scipy' in sys.modules)"
-        )
-        env = dict(os.environ, REPLICATION_AOT=aot)
-        command = [sys.executable, "-c", code]
-        done = subprocess.run(command, capture_output=True, text=True, env=env, check=True)
-        return done.stdout.splitlines()[-1], out.read_bytes()
+def _command(tmp_path, args: list[str], out_name: str, aot: str) -> tuple[str, bytes]:
+    """Run ``replication ARGS -o OUT`` in a fresh interpreter: (numba, scipy.spatial loaded), OUT's bytes."""
+    out = tmp_path / out_name
+    code = (
+        "import sys\nfrom replication.cli import main\n"
+        f"assert main({[*args, '-o', str(out)]!r}) == 0\n"
+        "print('numba' in sys.modules, 'scipy.spatial' in sys.modules)"
+    )
+    env = dict(os.environ, REPLICATION_AOT=aot)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    return done.stdout.splitlines()[-1], out.read_bytes()
 
-    (loaded_aot, ahead), (loaded_jit, jit) = run("aot.vtk", "1"), run("jit.vtk", "0")
+
+@needs_module
+@pytest.mark.parametrize(
+    "args, suffix",
+    [
+        (["adt", "--random", "300", "--seed", "4"], ".vtk"),
+        (["nurbs", "--random", "300", "--seed", "5"], ".json"),
+    ],
+    ids=["adt", "nurbs"],
+)
+def test_small_commands_run_without_numba_and_write_the_same_file(tmp_path, args, suffix):
+    (loaded_aot, ahead), (loaded_jit, jit) = (
+        _command(tmp_path, args, "aot" + suffix, "1"),
+        _command(tmp_path, args, "jit" + suffix, "0"),
+    )
     assert loaded_aot == "False False"
     assert loaded_jit.startswith("True")
     assert ahead == jit
+
+
+def _gridding_inputs(n: int, seed: int, lattice: bool):
+    """A small ADT surface relabelled for the gridding, its grid, and queries outside its hull."""
+    from replication.surfaces import adt
+    from replication.surfaces._grid import relabel
+
+    rng = np.random.default_rng(seed)
+    points = rng.integers(0, 5, (n, 3)).astype(float) if lattice else rng.normal(size=(n, 3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DuplicatePointsWarning)
+        surface = adt(points, depth="z", duplicates="mean")
+    order = np.arange(surface.n_vertices, dtype=np.int32)
+    xy, depth, tri, (u0, u1, v0, v1) = relabel(surface.points, np.array([0, 1, 2]), surface.triangles, order)
+    u = np.linspace(u0, u1, int(rng.integers(2, 30)))
+    v = np.linspace(v0, v1, int(rng.integers(2, 30)))
+    angle = rng.uniform(0, 2 * np.pi, int(rng.integers(1, 20)))
+    far = np.column_stack([np.cos(angle), np.sin(angle)]) * (np.abs(xy).max() + 1 + rng.uniform(0, 5))
+    return surface, xy, depth, tri, u, v, far
+
+
+def _both(name: str, *args, outputs: tuple[int, ...]):
+    """Kernel ``name`` run ahead-of-time and by numba on copies of the outputs ``args[k]``, k in outputs."""
+    runs = []
+    for code in (_aot._checked(name), _aot._jit(name)):
+        given = [a.copy() if k in outputs else a for k, a in enumerate(args)]
+        code(*given)
+        runs.append([given[k] for k in outputs])
+    for a, b in zip(*runs):
+        np.testing.assert_array_equal(a, b)
+
+
+@needs_module
+@given(n=st.integers(3, 200), seed=st.integers(0, 2**32 - 1), lattice=st.booleans())
+def test_gridding_kernels_match_numba(n, seed, lattice):
+    from hypothesis import assume
+
+    from replication.errors import InputError
+
+    try:
+        surface, xy, depth, tri, u, v, far = _gridding_inputs(n, seed, lattice)
+    except InputError:  # collinear: no triangulation
+        assume(False)
+    f = frozen
+    shape = (u.size, v.size)
+    _both("raster", f(xy), f(tri), f(depth), f(u), f(v), 0, tri.shape[0], np.full(shape, -1, np.int32),
+          np.zeros(shape), outputs=(7, 8))  # fmt: skip
+    points, m = f(surface.points), surface.n_vertices
+    order = f(np.random.default_rng(seed).permutation(m).astype(np.int32))
+    _both("gather", points, f(np.array([1, 0, 2])), order, 0, m, np.zeros(m, np.int32), np.zeros((m, 2)),
+          np.zeros(m), np.zeros(4), outputs=(5, 6, 7, 8))  # fmt: skip
+    position = np.argsort(order).astype(np.int32)
+    _both("renumber", f(surface.triangles), position, 0, surface.n_triangles,
+          np.zeros((surface.n_triangles, 3), np.int32), outputs=(4,))  # fmt: skip
+    nbr, far = f(surface.neighbors), f(far)
+    uv = f(surface.projected())
+    start = f(np.zeros(len(far), np.int32))
+    _both("exits", uv, f(surface.triangles), nbr, far, start, np.zeros(len(far), np.int32), outputs=(5,))
+    left = np.empty(len(far), np.int32)
+    _aot._jit("exits")(uv, f(surface.triangles), nbr, far, start, left)
+    ids = f(np.random.default_rng(seed).permutation(m).astype(np.int32))
+    _both("nearest", uv, f(surface.triangles), nbr, far, f(left), ids, np.zeros(len(far), np.int32),
+          outputs=(6,))  # fmt: skip
+
+
+def test_small_gridding_calls_the_compiled_kernels_with_their_own_types(monkeypatch):
+    """The callers pass exactly the table's types: no call of a small cloud falls back to numba."""
+    from replication.surfaces import _grid, interpolate, random_cloud
+    from replication.surfaces.nurbs import fit_nurbs
+
+    used = []
+
+    def checked(name):
+        used.append(name)
+        spec = _aot.KERNELS[name]
+        checks = [_aot._parse(a) for a in spec.args]
+
+        def call(*args):
+            fits = [_aot._fits(a, c) for a, c in zip(args, checks)]
+            assert len(args) == len(checks) and all(fits), f"{name}: argument types {fits}"
+            return _aot._jit(name)(*args)
+
+        return call
+
+    for module in (_grid, interpolate):
+        monkeypatch.setattr(module, "kernel", checked)
+    surface = fit_nurbs(random_cloud(300, rng=2), evaluator="fast")
+    assert surface.n_filled > 0  # the nearest fill ran
+    triangle, alone = np.array([[0, 1, 2]]), np.full((1, 3), -1)
+    interpolate.nearest_vertices(np.eye(3)[:, :2], triangle, alone, [[5.0, 5.0]], [0])
+    assert set(used) == {"raster", "gather", "renumber", "exits", "nearest"}

@@ -20,15 +20,9 @@ import numpy as np
 from numba import njit
 
 from replication.surfaces._predicates import orient
-from replication.surfaces._threads import frozen
-
-__all__ = ["raster", "relabel"]
 
 #: Slack (in grid steps) of the candidate range against the rounding of its computation.
 _SLACK = 1e-6
-#: The triangles are cut into this many runs, rasterized on the thread pool; where runs
-#: claim the same node (on a shared edge) the lower run wins, as in one sequential pass.
-_RUNS = 4
 
 
 @njit(cache=True, inline="always")
@@ -88,28 +82,6 @@ def _combine(owners, outs, lo, hi):
                     out[i, j] = values[i, j]
 
 
-def raster(xy: np.ndarray, tri: np.ndarray, values: np.ndarray, u: np.ndarray, v: np.ndarray):
-    """``(owner, out)``: for each node of the grid ``u x v``, the first triangle containing it
-    (-1 outside) and the interpolated value there (undefined outside)."""
-    from replication.surfaces._threads import run
-
-    shape = (u.shape[0], v.shape[0])
-    m = tri.shape[0]
-    runs = _RUNS if m >= 100_000 else 1
-    edges = [m * r // runs for r in range(runs + 1)]
-    owners = [np.full(shape, -1, dtype=np.int32) for _ in range(runs)]
-    outs = [np.empty(shape) for _ in range(runs)]
-    run([
-        (lambda r=r: _raster(xy, tri, values, u, v, edges[r], edges[r + 1], owners[r], outs[r]))
-        for r in range(runs)
-    ])  # fmt: skip
-    if runs > 1:
-        rows = [shape[0] * r // runs for r in range(runs + 1)]
-        owned, valued = tuple(owners), tuple(outs)
-        run([(lambda r=r: _combine(owned, valued, rows[r], rows[r + 1])) for r in range(runs)])
-    return owners[0], outs[0]
-
-
 @njit(cache=True, nogil=True)
 def _gather(points, axes, order, lo, hi, position, xy, values, bounds):
     """Points lo..hi-1 of ``order``; ``bounds``: their (min u, max u, min v, max v)."""
@@ -136,32 +108,3 @@ def _renumber(triangles, position, lo, hi, tri):
     for t in range(lo, hi):
         for j in range(3):
             tri[t, j] = position[triangles[t, j]]
-
-
-def relabel(points: np.ndarray, axes: np.ndarray, triangles: np.ndarray, order: np.ndarray):
-    """``(xy, values, tri, bounds)``: the (u, v) and depth (columns ``axes``) of vertex
-    ``order[k]`` as point k, the triangles relabelled so, and (min u, max u, min v, max v).
-
-    Kernels that visit every triangle then read the vertices of nearby triangles from nearby
-    memory (the triangulator's order is block by block, in sweep order), which halves the
-    time of a grid of a million nodes. Runs in fixed pieces on the thread pool.
-    """
-    from replication.surfaces._threads import run
-
-    points, axes, triangles, order = frozen(points), frozen(axes), frozen(triangles, np.int32), frozen(order)
-    m, count = order.shape[0], triangles.shape[0]
-    pieces = _RUNS if count >= 100_000 else 1
-    position = np.empty(points.shape[0], dtype=np.int32)
-    xy = np.empty((m, 2))
-    values = np.empty(m)
-    tri = np.empty((count, 3), dtype=np.int32)
-    cut = [m * r // pieces for r in range(pieces + 1)]
-    bounds = np.empty((pieces, 4))
-    run([
-        (lambda r=r: _gather(points, axes, order, cut[r], cut[r + 1], position, xy, values, bounds[r]))
-        for r in range(pieces)
-    ])  # fmt: skip
-    cut = [count * r // pieces for r in range(pieces + 1)]
-    run([(lambda r=r: _renumber(triangles, position, cut[r], cut[r + 1], tri)) for r in range(pieces)])
-    lo, hi = bounds.min(axis=0), bounds.max(axis=0)
-    return xy, values, tri, (float(lo[0]), float(hi[1]), float(lo[2]), float(hi[3]))

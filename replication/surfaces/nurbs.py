@@ -163,12 +163,12 @@ def grid_depths(surface: Surface, shape: tuple[int, int]) -> Grid:
 
     Nodes outside the convex hull take the depth of the nearest vertex (the smallest vertex
     index among equally near ones). The grid is filled triangle by triangle
-    (:mod:`._raster`), on the vertices relabelled in the triangulator's (spatially coherent)
+    (:mod:`._grid`), on the vertices relabelled in the triangulator's (spatially coherent)
     order; the nearest vertex of an outside node is found by a walk on the surface's own
     triangle adjacency from the triangle of the nearest inside node of its row, then a
     greedy walk on the Delaunay triangulation (no k-d tree is built).
     """
-    from replication.surfaces._raster import raster, relabel
+    from replication.surfaces._grid import raster, relabel
     from replication.surfaces.interpolate import fill_nearest
 
     order = surface.vertex_order
