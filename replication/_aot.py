@@ -82,8 +82,9 @@ _INDEX, _VALUES = "int32[::1] ro", "float64[::1] ro"
 
 #: The kernels compiled ahead of time, by the name :func:`kernel` knows them by: those of
 #: ``adt()`` on clouds of at most ``_triangulate.SMALL`` points (the ``replication adt``
-#: command on a typical cloud), and those of the NURBS baseline's gridding of a triangulation
-#: of fewer than ``_grid._PIECES_MIN`` triangles (``replication nurbs``).
+#: command on a typical cloud), those of the NURBS baseline's gridding of a triangulation
+#: of fewer than ``_grid._PIECES_MIN`` triangles (``replication nurbs``), and the point
+#: location and interpolation of :mod:`replication.surfaces.interpolate` (``replication compare``).
 KERNELS: dict[str, Kernel] = {
     "single": Kernel(
         "replication.surfaces._blocks",
@@ -129,6 +130,18 @@ KERNELS: dict[str, Kernel] = {
         "replication.surfaces._walks",
         "_exits",
         (_CLOUD, _TRIANGLES, _TRIANGLES, _CLOUD, _INDEX, "int32[::1]"),
+        ("none",),
+    ),
+    "locate": Kernel(
+        "replication.surfaces._walks",
+        "_locate",
+        (_CLOUD, _TRIANGLES, _TRIANGLES, _CLOUD, "boolean", "int32[::1]", "int32[::1]"),
+        ("none",),
+    ),
+    "barycentric": Kernel(
+        "replication.surfaces._walks",
+        "_barycentric",
+        (_CLOUD, _TRIANGLES, "int32[::1]", _CLOUD, _VALUES, "float64[::1]"),
         ("none",),
     ),
     "nearest": Kernel(
@@ -260,20 +273,23 @@ def _checked(name: str) -> Callable:
     return call
 
 
-def _parse(arg: str) -> tuple[np.dtype | None, int, bool]:
-    """``(dtype, ndim, readonly)`` of an array type of :class:`Kernel`; dtype None: an integer."""
+def _parse(arg: str) -> tuple[np.dtype, int, bool]:
+    """``(dtype, ndim, readonly)`` of an argument type of :class:`Kernel`; ndim 0: a scalar
+    (``int64`` or ``boolean``)."""
     readonly = arg.endswith(" ro")
     text = arg.removesuffix(" ro")
     if "[" not in text:
-        return None, 0, False
+        return np.dtype(bool if text == "boolean" else text), 0, False
     base, dims = text.split("[", 1)
     return np.dtype(base), dims.count(",") + 1, readonly
 
 
-def _fits(value, check: tuple[np.dtype | None, int, bool]) -> bool:
+def _fits(value, check: tuple[np.dtype, int, bool]) -> bool:
     """Whether ``value`` has the type of one argument of a compiled kernel (see :func:`_parse`)."""
     dtype, ndim, readonly = check
-    if dtype is None:
+    if ndim == 0:
+        if dtype.kind == "b":
+            return isinstance(value, bool | np.bool_)
         return isinstance(value, int | np.integer) and not isinstance(value, bool)
     return (
         isinstance(value, np.ndarray)

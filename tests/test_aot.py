@@ -192,7 +192,8 @@ def test_type_spelling_of_the_table():
     assert _aot.numba_signature(_aot.KERNELS["raster"]).return_type == types.none
     assert _aot._parse("float64[:, ::1] ro") == (np.dtype(np.float64), 2, True)
     assert _aot._parse("float64[::1]") == (np.dtype(np.float64), 1, False)
-    assert _aot._parse("int64") == (None, 0, False)
+    assert _aot._parse("int64") == (np.dtype(np.int64), 0, False)
+    assert _aot._parse("boolean") == (np.dtype(bool), 0, False)
 
 
 def test_small_clouds_are_one_block_so_the_one_call_path_needs_no_partition():
@@ -290,13 +291,22 @@ def test_gridding_kernels_match_numba(n, seed, lattice):
     _both("exits", uv, f(surface.triangles), nbr, far, start, np.zeros(len(far), np.int32), outputs=(5,))
     left = np.empty(len(far), np.int32)
     _aot._jit("exits")(uv, f(surface.triangles), nbr, far, start, left)
+    queries = f(np.vstack([far, np.random.default_rng(seed).uniform(-2, 2, (20, 2)), uv[:3]]))
+    k = len(queries)
+    for exhaustive in (False, True):
+        _both("locate", uv, f(surface.triangles), nbr, queries, exhaustive, np.zeros(k, np.int32),
+              np.zeros(k, np.int32), outputs=(5, 6))  # fmt: skip
+    found, spare = np.empty(k, np.int32), np.empty(k, np.int32)
+    _aot._jit("locate")(uv, f(surface.triangles), nbr, queries, False, found, spare)
+    depth_of = f(surface.points[:, 2].copy())
+    _both("barycentric", uv, f(surface.triangles), found, queries, depth_of, np.zeros(k), outputs=(5,))
     ids = f(np.random.default_rng(seed).permutation(m).astype(np.int32))
     _both("nearest", uv, f(surface.triangles), nbr, far, f(left), ids, np.zeros(len(far), np.int32),
           outputs=(6,))  # fmt: skip
 
 
-def test_small_gridding_calls_the_compiled_kernels_with_their_own_types(monkeypatch):
-    """The callers pass exactly the table's types: no call of a small cloud falls back to numba."""
+def test_small_clouds_call_the_compiled_kernels_with_their_own_types(monkeypatch):
+    """The gridding and interpolation pass exactly the table's types: no small call falls back to numba."""
     from replication.surfaces import _grid, interpolate, random_cloud
     from replication.surfaces.nurbs import fit_nurbs
 
@@ -320,4 +330,7 @@ def test_small_gridding_calls_the_compiled_kernels_with_their_own_types(monkeypa
     assert surface.n_filled > 0  # the nearest fill ran
     triangle, alone = np.array([[0, 1, 2]]), np.full((1, 3), -1)
     interpolate.nearest_vertices(np.eye(3)[:, :2], triangle, alone, [[5.0, 5.0]], [0])
-    assert set(used) == {"raster", "gather", "renumber", "exits", "nearest"}
+    uv, values = np.eye(3)[:, :2], np.arange(3.0)
+    interpolate.interpolate_linear(uv, triangle, values, [[0.2, 0.2], [5, 5]], nearest_outside=True)
+    interpolate.interpolate_linear(uv, triangle, values, [[0.2, 0.2]], convex=False)
+    assert set(used) == set(_aot.KERNELS) - {"single", "column_spreads"}

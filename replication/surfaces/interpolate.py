@@ -83,15 +83,13 @@ def locate(
 
 
 def _walk(uv, triangles, queries, neighbors, convex):
-    from replication.surfaces._walks import _locate
-
     triangles = _int32(triangles)
     queries = frozen(np.asarray(queries, dtype=np.float64).reshape(-1, 2))
     nbr = _int32(triangle_neighbors(triangles) if neighbors is None else neighbors)
     found = np.empty(queries.shape[0], dtype=np.int32)
     left = np.empty(queries.shape[0], dtype=np.int32)
     xy = frozen(uv, np.float64)
-    _locate(xy, triangles, nbr, queries, not convex, found, left)
+    kernel("locate")(xy, triangles, nbr, queries, not convex, found, left)
     return found, left, triangles, nbr, queries, xy
 
 
@@ -156,17 +154,15 @@ def interpolate_linear(
     The depth of an ADT surface at (u, v) (paper section 4) and MATLAB-style ``griddata``
     linear interpolation (section 3.1) are both this function on the Delaunay triangulation.
     """
-    from replication.surfaces._walks import _barycentric, _nearest
-
     found, left, triangles, nbr, queries, xy = _walk(uv, triangles, queries, neighbors, convex)
     values = frozen(values, np.float64)
     out = np.empty(queries.shape[0])
-    _barycentric(xy, triangles, found, queries, values, out)
+    kernel("barycentric")(xy, triangles, found, queries, values, out)
     if nearest_outside:
         outside = np.flatnonzero(found < 0)
         if outside.size:
             near = np.empty(outside.size, dtype=np.int32)
             ids = _int32(np.arange(xy.shape[0]))
-            _nearest(xy, triangles, nbr, frozen(queries[outside]), _int32(left[outside]), ids, near)
+            kernel("nearest")(xy, triangles, nbr, frozen(queries[outside]), _int32(left[outside]), ids, near)
             out[outside] = values[near]
     return (found, out) if located else out
