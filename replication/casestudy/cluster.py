@@ -130,25 +130,33 @@ def dask_executor(
 _DASK_LOGGERS = ("distributed", "tornado")
 
 
+def _dask_loggers() -> list[logging.Logger]:
+    """dask's and tornado's loggers, with every child that exists: distributed's configuration
+    gives some their own level (``tornado.application``: ERROR, under ``tornado``: CRITICAL),
+    which quietening the parent does not touch."""
+    names = {name for name in logging.root.manager.loggerDict if name.split(".")[0] in _DASK_LOGGERS}
+    return [logging.getLogger(name) for name in sorted(names | set(_DASK_LOGGERS))]
+
+
 @contextlib.contextmanager
 def _log_levels_restored() -> Iterator[None]:
-    loggers = [logging.getLogger(name) for name in _DASK_LOGGERS]
-    levels = [logger.level for logger in loggers]
+    """The levels of dask's and tornado's loggers as they were (NOTSET for loggers made since)."""
+    levels = {logger.name: logger.level for logger in _dask_loggers()}
     try:
         yield
     finally:
-        for logger, level in zip(loggers, levels):
-            logger.setLevel(level)
+        for logger in _dask_loggers():
+            logger.setLevel(levels.get(logger.name, logging.NOTSET))
 
 
 def _dask_executor(client, on_interrupt, *, local: bool) -> Iterator[cf.Executor]:  # type: ignore[no-untyped-def]
     """The client's executor; on exit pending evaluations are cancelled and the teardown is quiet.
 
     After Ctrl-C a local cluster waits for the tasks under way (a second Ctrl-C abandons
-    them, :func:`_abandon_local`). What dask and tornado log while the client and cluster
-    close (connections closed, results that cannot be gathered) is not shown: nobody waits
-    for those results any more. The levels are restored by :func:`_log_levels_restored`
-    once everything is closed.
+    them, :func:`_abandon_local`). What dask and tornado log from the cancellation on, while
+    the client and cluster close (cancelled futures, connections closed, results that cannot
+    be gathered), is not shown: nobody waits for those results any more. The levels are
+    restored by :func:`_log_levels_restored` once everything is closed.
     """
     from distributed.cfexecutor import ClientExecutor
 
@@ -165,6 +173,10 @@ def _dask_executor(client, on_interrupt, *, local: bool) -> Iterator[cf.Executor
     try:
         yield pool
     except (Exception, KeyboardInterrupt) as exc:
+        # quiet from here: cancelling makes the executor's callbacks on the client's event
+        # loop fail with FutureCancelledError, which tornado logs with a traceback, at once
+        # or a moment later
+        _quiet()
         try:
             client.cancel(list(pool._futures))  # the evaluations not started never start
             if local:
@@ -173,15 +185,19 @@ def _dask_executor(client, on_interrupt, *, local: bool) -> Iterator[cf.Executor
                 _wait_until_idle(client)
         except KeyboardInterrupt:  # Ctrl-C (again): abandon the tasks under way
             if local:
-                for name in _DASK_LOGGERS:  # the teardown of interrupted tasks is not news
-                    logging.getLogger(name).setLevel(logging.CRITICAL)
                 _abandon_local(client)
             raise
         raise
     finally:
-        for name in _DASK_LOGGERS:
-            logging.getLogger(name).setLevel(logging.CRITICAL)
+        _quiet()
         pool.shutdown(wait=False)
+
+
+def _quiet() -> None:
+    """dask's and tornado's loggers show nothing below CRITICAL (restored by
+    :func:`_log_levels_restored`)."""
+    for logger in _dask_loggers():
+        logger.setLevel(logging.CRITICAL)
 
 
 def running_tasks(dask_worker) -> int:  # type: ignore[no-untyped-def]

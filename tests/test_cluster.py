@@ -1,0 +1,74 @@
+"""The dask executor's teardown after Ctrl-C or an error: quiet from the cancellation on.
+
+Cancelling the evaluations makes the executor's callbacks on the client's event loop fail
+with ``FutureCancelledError``, which tornado logs with a traceback on ``tornado.application``.
+distributed's configuration gives that logger a level of its own (ERROR), so quietening
+``tornado`` did not silence it, and a Ctrl-C printed the traceback whenever the loop ran a
+callback before closing (seen intermittently in ``test_interrupts``). Here a fake client
+logs that error synchronously, inside ``cancel``: the worst timing, deterministic.
+"""
+
+import logging
+
+import pytest
+
+pytest.importorskip("distributed")
+
+from replication.casestudy import cluster  # noqa: E402
+
+
+class FakeClient:
+    """What ``_dask_executor`` uses of a ``distributed.Client``; ``cancel`` logs as tornado would."""
+
+    loop = None
+
+    def __init__(self):
+        self.cancelled = []
+
+    def register_plugin(self, plugin):
+        pass
+
+    def nthreads(self):
+        return {"worker": 1}
+
+    def cancel(self, futures):
+        self.cancelled.append(futures)
+        tornado = logging.getLogger("tornado.application")
+        tornado.error("Exception in callback\nTraceback (most recent call last)")
+        logging.getLogger("distributed.client").error("cancelled for reason: unknown")
+
+
+class Recorder(logging.Handler):
+    def __init__(self):
+        super().__init__(logging.DEBUG)
+        self.records = []
+
+    def emit(self, record):
+        self.records.append(record)
+
+
+@pytest.mark.parametrize("error", [KeyboardInterrupt, RuntimeError], ids=["ctrl-c", "error"])
+@pytest.mark.parametrize("local", [False, True], ids=["scheduler", "local"])
+def test_cancellation_logs_nothing_and_levels_are_restored(monkeypatch, error, local):
+    monkeypatch.setattr(cluster, "_wait_until_idle", lambda client: True)
+    recorder = Recorder()
+    root = logging.getLogger()
+    root.addHandler(recorder)
+    client = FakeClient()
+    said = []
+    try:
+        with pytest.raises(error), cluster._log_levels_restored():
+            executor = cluster._dask_executor(client, lambda: said.append("stopping"), local=local)
+            pool = next(executor)
+            assert pool.worker_count() == 1
+            assert logging.getLogger("tornado.application").isEnabledFor(logging.ERROR)  # as configured
+            try:
+                executor.throw(error())
+            except StopIteration:  # pragma: no cover - the generator must re-raise
+                pytest.fail("the executor swallowed the exception")
+    finally:
+        root.removeHandler(recorder)
+    assert client.cancelled, "the pending evaluations were not cancelled"
+    assert [r.getMessage() for r in recorder.records if r.levelno < logging.CRITICAL] == []
+    assert said == (["stopping"] if local and error is KeyboardInterrupt else [])
+    assert logging.getLogger("tornado.application").isEnabledFor(logging.ERROR)  # restored after
