@@ -19,7 +19,7 @@ from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-#: Seconds the kernels may take to compile (about 20 s on a 2-core machine) before the build
+#: Seconds the kernels may take to compile (about 40 s on a 2-core machine) before the build
 #: goes on without them.
 BUILD_TIMEOUT = 900
 

@@ -79,12 +79,19 @@ class Kernel:
 #: neighbours), indices, values.
 _CLOUD, _TRIANGLES = "float64[:, ::1] ro", "int32[:, ::1] ro"
 _INDEX, _VALUES = "int32[::1] ro", "float64[::1] ro"
+#: The water-jet model's mesh (``_sheet.prepare``): vertex x, y, z; triangles; neighbours;
+#: facet normals; slopes; boundary edges; the per-edge table.
+_MESH = (
+    "(float64[::1], float64[::1], float64[::1], int64[:, ::1] ro, int64[:, ::1], float64[:, ::1], "
+    "float64[:, ::1], int64[:, ::1], float64[:, :, ::1])"
+)
 
 #: The kernels compiled ahead of time, by the name :func:`kernel` knows them by: those of
 #: ``adt()`` on clouds of at most ``_triangulate.SMALL`` points (the ``replication adt``
 #: command on a typical cloud), those of the NURBS baseline's gridding of a triangulation
 #: of fewer than ``_grid._PIECES_MIN`` triangles (``replication nurbs``), and the point
-#: location and interpolation of :mod:`replication.surfaces.interpolate` (``replication compare``).
+#: location and interpolation of :mod:`replication.surfaces.interpolate` (``replication compare``),
+#: and the water-jet model (``replication force``; ``sheet_*``).
 KERNELS: dict[str, Kernel] = {
     "single": Kernel(
         "replication.surfaces._blocks",
@@ -144,6 +151,43 @@ KERNELS: dict[str, Kernel] = {
         (_CLOUD, _TRIANGLES, "int32[::1]", _CLOUD, _VALUES, "float64[::1]"),
         ("none",),
     ),
+    "sheet_prepare": Kernel(
+        "replication.casestudy._sheet",
+        "prepare",
+        (_CLOUD, "int64[:, ::1] ro", "int64[:, ::1] ro", "boolean"),
+        (_MESH, "float64[:, ::1]"),
+    ),
+    "sheet_trace": Kernel(
+        "replication.casestudy._sheet",
+        "trace",
+        (
+            _MESH,
+            "boolean",
+            "boolean",
+            "float64[::1]",
+            "float64[::1]",
+            "float64[::1] ro",
+            "int64[::1]",
+            "float64",
+            "int64",
+            "float64",
+            "int64",
+            "float64[::1]",
+        ),
+        ("float64[::1]", "float64[::1]", "float64[::1]"),
+    ),  # fmt: skip
+    "sheet_orientations": Kernel(
+        "replication.casestudy._sheet",
+        "orientations",
+        (_VALUES, _VALUES, "int64[:, ::1] ro"),
+        ("float64[::1]",),
+    ),
+    "sheet_first_overlap": Kernel(
+        "replication.casestudy._sheet",
+        "first_overlap",
+        (_VALUES, _VALUES, "int64[:, ::1] ro"),
+        ("int64", "int64", "int64"),
+    ),
     "nearest": Kernel(
         "replication.surfaces._walks",
         "_nearest",
@@ -159,14 +203,16 @@ def source_digest() -> int:
     Returns
     -------
     int
-        A digest of the kernel table, the builder (``_aotbuild.py``) and every private module
-        of :mod:`replication.surfaces` (where all kernels and their callees live): more than
-        the kernels need, so that no edit is missed.
+        A digest of the kernel table, the builder (``_aotbuild.py``), every private module
+        of :mod:`replication.surfaces` and the water-jet model's kernel modules
+        (``casestudy/_sheet*.py``), where all kernels and their callees live: more than the
+        kernels need, so that no edit is missed.
     """
     package = Path(__file__).resolve().parent
     h = hashlib.sha256(repr(sorted(KERNELS.items())).encode())
-    for path in [package / "_aotbuild.py", *sorted((package / "surfaces").glob("_*.py"))]:
-        h.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    kernels = [*(package / "surfaces").glob("_*.py"), *(package / "casestudy").glob("_sheet*.py")]
+    for path in [package / "_aotbuild.py", *sorted(kernels)]:
+        h.update(path.relative_to(package).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
     return int(h.hexdigest()[:15], 16)
 
 
@@ -215,11 +261,31 @@ def kernel(name: str) -> Callable:
     return _jit(name)
 
 
+def _items(text: str) -> list[str] | None:
+    """The item types of a tuple type ``"(a, b, ...)"`` (None: not a tuple)."""
+    if not text.startswith("("):
+        return None
+    items, depth, start = [], 0, 1
+    for k, char in enumerate(text[1:-1], 1):
+        if char in "([":
+            depth += 1
+        elif char in ")]":
+            depth -= 1
+        elif char == "," and depth == 0:
+            items.append(text[start:k].strip())
+            start = k + 1
+    items.append(text[start:-1].strip())
+    return items
+
+
 def numba_signature(spec: Kernel):
     """numba's signature of a kernel of the table (imports numba)."""
     from numba.core import types
 
     def spelled(text: str):
+        items = _items(text)
+        if items is not None:
+            return types.Tuple([spelled(item) for item in items])
         readonly = text.endswith(" ro")
         spelling = text.removesuffix(" ro")
         if "[" not in spelling:
@@ -273,9 +339,12 @@ def _checked(name: str) -> Callable:
     return call
 
 
-def _parse(arg: str) -> tuple[np.dtype, int, bool]:
-    """``(dtype, ndim, readonly)`` of an argument type of :class:`Kernel`; ndim 0: a scalar
-    (``int64`` or ``boolean``)."""
+def _parse(arg: str):
+    """The check of one argument type of :class:`Kernel`: ``(dtype, ndim, readonly)``, ndim 0
+    for a scalar (``int64``, ``float64`` or ``boolean``), or a list of item checks for a tuple."""
+    items = _items(arg)
+    if items is not None:
+        return [_parse(item) for item in items]
     readonly = arg.endswith(" ro")
     text = arg.removesuffix(" ro")
     if "[" not in text:
@@ -284,12 +353,20 @@ def _parse(arg: str) -> tuple[np.dtype, int, bool]:
     return np.dtype(base), dims.count(",") + 1, readonly
 
 
-def _fits(value, check: tuple[np.dtype, int, bool]) -> bool:
+def _fits(value, check) -> bool:
     """Whether ``value`` has the type of one argument of a compiled kernel (see :func:`_parse`)."""
+    if isinstance(check, list):
+        return (
+            isinstance(value, tuple)
+            and len(value) == len(check)
+            and all(_fits(v, c) for v, c in zip(value, check))
+        )
     dtype, ndim, readonly = check
     if ndim == 0:
         if dtype.kind == "b":
             return isinstance(value, bool | np.bool_)
+        if dtype.kind == "f":
+            return isinstance(value, float)  # a Python float or numpy.float64
         return isinstance(value, int | np.integer) and not isinstance(value, bool)
     return (
         isinstance(value, np.ndarray)

@@ -6,7 +6,7 @@ OUT is the extension module's file. A developer who edited a kernel runs
 other sources is never used: without OUT it goes beside the package, where an editable install
 keeps it.
 
-Needs numba, numpy and a C compiler; compiling takes about 20 s of one core.
+Needs numba, numpy and a C compiler; compiling takes about 40 s of one core.
 """
 
 from __future__ import annotations

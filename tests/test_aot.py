@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 
 from replication import _aot
 from replication.errors import DuplicatePointsWarning
-from replication.surfaces import _blocks, _moments, _partition, _triangulate
+from replication.surfaces import _blocks, _moments, _partition, _triangulate, adt
 from replication.surfaces._threads import frozen
 
 BUILT = _aot.compiled() is not None
@@ -142,6 +142,7 @@ def test_environment_variable_disables_the_module(monkeypatch):
 
 
 def test_digest_changes_with_any_kernel_source(tmp_path, monkeypatch):
+    real = os.path.dirname(_aot.__file__)
     package = tmp_path / "replication"
     shutil.copytree(os.path.dirname(_aot.__file__) + "/surfaces", package / "surfaces")
     shutil.copy(_aot.__file__, package / "_aot.py")
@@ -157,6 +158,13 @@ def test_digest_changes_with_any_kernel_source(tmp_path, monkeypatch):
     changed = _aot.source_digest()
     (package / "_aotbuild.py").write_text("")
     assert _aot.source_digest() != changed
+    (package / "casestudy").mkdir()
+    shutil.copy(real + "/casestudy/_sheet.py", package / "casestudy" / "_sheet.py")
+    with_sheet = _aot.source_digest()
+    assert with_sheet != changed
+    sheet = package / "casestudy" / "_sheet.py"
+    sheet.write_text(sheet.read_text() + "\n")
+    assert _aot.source_digest() != with_sheet
 
 
 def test_digest_covers_every_module_the_kernels_are_compiled_from():
@@ -166,9 +174,10 @@ def test_digest_covers_every_module_the_kernels_are_compiled_from():
     code = f"import sys\n{imports}print(*sys.modules)"
     loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     package = {m for m in loaded.stdout.split() if m.startswith("replication")}
-    kernels = {m for m in package if m.startswith("replication.surfaces._")}
-    assert modules <= kernels  # private modules of replication.surfaces: all hashed
-    assert package - kernels <= {"replication", "replication._lazy", "replication.surfaces"}
+    hashed = {m for m in package if m.startswith(("replication.surfaces._", "replication.casestudy._sheet"))}
+    assert modules <= hashed  # private modules of replication.surfaces and the jet's kernels: all hashed
+    packages = {"replication", "replication._lazy", "replication.surfaces", "replication.casestudy"}
+    assert package - hashed <= packages  # package __init__ modules import their names lazily
 
 
 def test_once_numba_has_loaded_a_kernel_it_serves_later_calls():
@@ -233,6 +242,30 @@ def test_small_commands_run_without_numba_and_write_the_same_file(tmp_path, args
     assert ahead == jit
 
 
+@needs_module
+def test_force_command_runs_without_numba_and_gives_the_same_force(tmp_path):
+    import json
+
+    cloud = np.random.default_rng(1).uniform([0, 0, 0], [36, 30, 13], (101, 3))
+    path = tmp_path / "half.csv"
+    np.savetxt(path, cloud, delimiter=",", header="x,y,z", comments="")
+    code = (
+        "import contextlib, io, json, sys\nfrom replication.cli import main\nout = io.StringIO()\n"
+        f"with contextlib.redirect_stdout(out):\n    assert main(['force', '--json', {str(path)!r}]) == 0\n"
+        "record = json.loads(out.getvalue())\nrecord.pop('evaluation_seconds')\n"
+        "print(json.dumps([record, 'numba' in sys.modules]))"
+    )
+    runs = []
+    for aot in ("1", "0"):
+        env = dict(os.environ, REPLICATION_AOT=aot)
+        command = [sys.executable, "-c", code]
+        done = subprocess.run(command, capture_output=True, text=True, env=env, check=True)
+        runs.append(json.loads(done.stdout.splitlines()[-1]))
+    (ahead, numba_loaded_aot), (jit, numba_loaded_jit) = runs
+    assert not numba_loaded_aot and numba_loaded_jit
+    assert ahead == jit and ahead["axial_force_N"] > 0
+
+
 def _gridding_inputs(n: int, seed: int, lattice: bool):
     """A small ADT surface relabelled for the gridding, its grid, and queries outside its hull."""
     from replication.surfaces import adt
@@ -261,6 +294,33 @@ def _both(name: str, *args, outputs: tuple[int, ...]):
         runs.append([given[k] for k in outputs])
     for a, b in zip(*runs):
         np.testing.assert_array_equal(a, b)
+
+
+@needs_module
+@given(genome_seed=st.integers(0, 2**32 - 1), full_jet=st.booleans())
+def test_jet_model_kernels_match_numba(genome_seed, full_jet):
+    """The jet's force on random GA surfaces, every kernel ahead of time against numba's."""
+    from replication.casestudy import jet, mesh
+    from replication.casestudy.ga import GAConfig, points_from_genome, random_genome
+
+    config = GAConfig()
+    points = points_from_genome(random_genome(config, rng=np.random.default_rng(genome_seed)), config)
+    if full_jet:  # the full jet on the surface mirrored into y < 0
+        points = np.vstack([points, points * [1.0, -1.0, 1.0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DuplicatePointsWarning)
+        surface = adt(points, depth="z")
+    jet_config = jet.JetConfig(full_jet=True) if full_jet else jet.JetConfig()
+    results = []
+    for code in (_aot._checked, _aot._jit):
+        with pytest.MonkeyPatch.context() as patch:
+            for module in (jet, mesh):
+                patch.setattr(module, "kernel", code)
+            force = jet.surface_force(surface, jet_config)
+            checked = jet.jet_force(surface.points, surface.triangles, jet_config)
+        results.append((force.force.tolist(), force.momentum_out.tolist(), checked.force.tolist(),
+                        force.mass_flow_hit, force.n_parcels))  # fmt: skip
+    assert results[0] == results[1]
 
 
 @needs_module
@@ -306,7 +366,8 @@ def test_gridding_kernels_match_numba(n, seed, lattice):
 
 
 def test_small_clouds_call_the_compiled_kernels_with_their_own_types(monkeypatch):
-    """The gridding and interpolation pass exactly the table's types: no small call falls back to numba."""
+    """The gridding, the interpolation and the jet model pass exactly the table's types: no
+    small call falls back to numba."""
     from replication.surfaces import _grid, interpolate, random_cloud
     from replication.surfaces.nurbs import fit_nurbs
 
@@ -324,8 +385,14 @@ def test_small_clouds_call_the_compiled_kernels_with_their_own_types(monkeypatch
 
         return call
 
-    for module in (_grid, interpolate):
+    from replication.casestudy import jet, mesh
+    from replication.casestudy.shapes import pelton_bucket_surface
+
+    for module in (_grid, interpolate, jet, mesh):
         monkeypatch.setattr(module, "kernel", checked)
+    bucket = pelton_bucket_surface()
+    jet.surface_force(bucket)
+    jet.jet_force(bucket.points, bucket.triangles)  # the mesh checks too
     surface = fit_nurbs(random_cloud(300, rng=2), evaluator="fast")
     assert surface.n_filled > 0  # the nearest fill ran
     triangle, alone = np.array([[0, 1, 2]]), np.full((1, 3), -1)

@@ -26,20 +26,24 @@ import math
 import numpy as np
 from numba import njit
 
+from replication.casestudy._sheetcodes import (
+    BOUNDARY,
+    SYMMETRY,
+    TALLY_MASS_HIT,
+    TALLY_MASS_OUT,
+    TALLY_MASS_TRAPPED,
+    TALLY_PARCELS,
+    TALLY_STREAMLETS_HIT,
+)
 from replication.surfaces._sweephull import orient
 
 __all__ = ["BOUNDARY", "SYMMETRY", "first_overlap", "orientations", "prepare", "trace"]
 
-BOUNDARY = -1
-SYMMETRY = -2
 _SURFACE = 0
 _FLYING = 1
 _OUTSIDE = 2
 #: Creases and flights within this angle (radians) of the surface count as flat (rounding).
 _FLAT = 1e-9
-
-#: Layout of the tally array returned by :func:`trace`.
-TALLY_MASS_HIT, TALLY_MASS_OUT, TALLY_MASS_TRAPPED, TALLY_PARCELS, TALLY_STREAMLETS_HIT = range(5)
 
 
 @njit(cache=True, inline="always")

@@ -60,12 +60,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from replication.casestudy import _sheet
+from replication._aot import kernel
+from replication.casestudy import _sheetcodes as codes
 from replication.casestudy.jetconfig import JetConfig  # re-exported: jet.JetConfig keeps working
 from replication.casestudy.losses import SheetLosses
 from replication.casestudy.mesh import check_domain, check_height_field, weld
 from replication.casestudy.units import to_metres
 from replication.errors import DegenerateInputError, InputError
+from replication.surfaces._threads import frozen
 from replication.surfaces.interpolate import locate, triangle_neighbors
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -203,16 +205,17 @@ def _trace(
     """Run the compiled model on a validated mesh (metres, CCW triangles; their neighbours,
     if known, e.g. an ADT surface's own adjacency)."""
     half = not config.full_jet
-    triangles = np.ascontiguousarray(triangles, dtype=np.int64)
+    triangles = frozen(triangles, np.int64)
     raw = triangle_neighbors(triangles) if neighbors is None else neighbors
-    mesh, points = _sheet.prepare(points, triangles, np.ascontiguousarray(raw, dtype=np.int64), half)
+    mesh, points = kernel("sheet_prepare")(frozen(points, np.float64), triangles, frozen(raw, np.int64), half)
     xy, mass = jet_streamlets(config, resolution)
     start = locate(points[:, :2], triangles, xy, raw, convex=convex)
     max_steps = MAX_STEPS_PER_TRIANGLE * triangles.shape[0] + 64
     sx, sy = np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1])
-    jet = (sx, sy, mass, start.astype(np.int64), config.velocity, 4 * resolution)
+    jet = (sx, sy, frozen(mass), start.astype(np.int64), float(config.velocity), 4 * resolution)
     loss = (losses or SheetLosses()).as_array()
-    force, out, tally = _sheet.trace(mesh, half, convex, *jet, MIN_SPLIT_FRACTION, max_steps, loss)
+    trace = kernel("sheet_trace")
+    force, out, tally = trace(mesh, half, bool(convex), *jet, MIN_SPLIT_FRACTION, max_steps, loss)
     if not (np.all(np.isfinite(force)) and np.all(np.isfinite(out))):  # a safety net, never seen
         raise DegenerateInputError("the jet force is not finite: the surface has degenerate facets")
     force.flags.writeable = False
@@ -221,12 +224,12 @@ def _trace(
         force=force,
         momentum_out=out,
         mass_flow_total=config.mass_flow,
-        mass_flow_hit=float(tally[_sheet.TALLY_MASS_HIT]),
-        mass_flow_out=float(tally[_sheet.TALLY_MASS_OUT]),
-        mass_flow_trapped=float(tally[_sheet.TALLY_MASS_TRAPPED]),
+        mass_flow_hit=float(tally[codes.TALLY_MASS_HIT]),
+        mass_flow_out=float(tally[codes.TALLY_MASS_OUT]),
+        mass_flow_trapped=float(tally[codes.TALLY_MASS_TRAPPED]),
         n_streamlets=int(mass.size),
-        n_streamlets_hit=int(tally[_sheet.TALLY_STREAMLETS_HIT]),
-        n_parcels=int(tally[_sheet.TALLY_PARCELS]),
+        n_streamlets_hit=int(tally[codes.TALLY_STREAMLETS_HIT]),
+        n_parcels=int(tally[codes.TALLY_PARCELS]),
         resolution=resolution,
         config=config,
     )

@@ -11,10 +11,11 @@ import hashlib
 
 import numpy as np
 
-from replication.casestudy import _sheet
+from replication._aot import kernel
 from replication.casestudy.jetconfig import JetConfig
 from replication.casestudy.units import to_millimetres
 from replication.errors import InputError
+from replication.surfaces._threads import frozen
 
 __all__ = ["check_domain", "check_height_field", "surface_signature", "weld"]
 
@@ -73,9 +74,9 @@ def weld(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 def check_height_field(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, bool]:
     """Validate a triangle mesh as a height field over x-y; return CCW triangles and convexity."""
-    x = np.ascontiguousarray(points[:, 0])
-    y = np.ascontiguousarray(points[:, 1])
-    signs = _sheet.orientations(x, y, triangles)
+    x = frozen(points[:, 0], np.float64)
+    y = frozen(points[:, 1], np.float64)
+    signs = kernel("sheet_orientations")(x, y, frozen(triangles, np.int64))
     if np.all(signs < 0):  # consistently oriented downwards: the same height field
         triangles = np.ascontiguousarray(triangles[:, ::-1])
         signs = -signs
@@ -87,7 +88,7 @@ def check_height_field(points: np.ndarray, triangles: np.ndarray) -> tuple[np.nd
             f"triangle {t} (vertices {triangles[t].tolist()}) {what} in the x-y projection; {bad.size} such "
             "triangle(s): the jet model needs a height field z(x, y) with counter-clockwise triangles"
         )
-    i, j, kind = _sheet.first_overlap(x, y, triangles)
+    i, j, kind = kernel("sheet_first_overlap")(x, y, frozen(triangles, np.int64))
     if kind == 1:
         raise InputError(
             f"triangles {i} and {j} overlap in the x-y projection: the surface is not a height field"
