@@ -4,11 +4,14 @@ Cancelling the evaluations makes the executor's callbacks on the client's event 
 with ``FutureCancelledError``, which tornado logs with a traceback on ``tornado.application``.
 distributed's configuration gives that logger a level of its own (ERROR), so quietening
 ``tornado`` did not silence it, and a Ctrl-C printed the traceback whenever the loop ran a
-callback before closing (seen intermittently in ``test_interrupts``). Here a fake client
-logs that error synchronously, inside ``cancel``: the worst timing, deterministic.
+callback before closing (seen intermittently in ``test_interrupts``). The dispatcher also
+cancels the evaluations in flight itself, before the executor's teardown begins, so tornado's
+report of a cancelled future is dropped for as long as the executor is open. Here a fake
+client logs those errors synchronously: the worst timing, deterministic.
 """
 
 import logging
+import sys
 
 import pytest
 
@@ -72,3 +75,31 @@ def test_cancellation_logs_nothing_and_levels_are_restored(monkeypatch, error, l
     assert [r.getMessage() for r in recorder.records if r.levelno < logging.CRITICAL] == []
     assert said == (["stopping"] if local and error is KeyboardInterrupt else [])
     assert logging.getLogger("tornado.application").isEnabledFor(logging.ERROR)  # restored after
+
+
+def _cancelled_error():
+    from distributed.client import FutureCancelledError
+
+    try:
+        raise FutureCancelledError("evaluate_chunk-1", reason="unknown")
+    except FutureCancelledError:
+        return sys.exc_info()
+
+
+def test_a_future_cancelled_while_the_executor_is_open_is_not_reported(monkeypatch):
+    """The dispatcher's own ``future.cancel()`` on Ctrl-C comes before any teardown."""
+    recorder = Recorder()
+    callbacks = logging.getLogger("tornado.application")
+    callbacks.addHandler(recorder)
+    try:
+        with cluster._log_levels_restored():
+            executor = cluster._dask_executor(FakeClient(), None, local=False)
+            next(executor)
+            callbacks.error("Exception in callback", exc_info=_cancelled_error())  # dropped
+            callbacks.error("Exception in callback", exc_info=(RuntimeError, RuntimeError("news"), None))
+            executor.close()
+        callbacks.error("Exception in callback", exc_info=_cancelled_error())  # the filter is gone
+    finally:
+        callbacks.removeHandler(recorder)
+    shown = [record.exc_info[0].__name__ for record in recorder.records]
+    assert shown == ["RuntimeError", "FutureCancelledError"]

@@ -138,13 +138,31 @@ def _dask_loggers() -> list[logging.Logger]:
     return [logging.getLogger(name) for name in sorted(names | set(_DASK_LOGGERS))]
 
 
+class _CancelledFutureFilter(logging.Filter):
+    """Drops tornado's report of an executor callback that found its future cancelled.
+
+    The dispatcher cancels the evaluations in flight when Ctrl-C stops a batch (before the
+    executor is closed); the client's event loop then runs the executor's callbacks, whose
+    ``FutureCancelledError`` tornado logs on ``tornado.application`` with a traceback. A
+    future cancelled on purpose is not news; every other error still shows.
+    """
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        error = record.exc_info[1] if record.exc_info else None
+        return not isinstance(error, cf.CancelledError)  # distributed's FutureCancelledError is one
+
+
 @contextlib.contextmanager
 def _log_levels_restored() -> Iterator[None]:
-    """The levels of dask's and tornado's loggers as they were (NOTSET for loggers made since)."""
+    """The levels of dask's and tornado's loggers as they were (NOTSET for loggers made since);
+    meanwhile tornado does not report cancelled futures (:class:`_CancelledFutureFilter`)."""
     levels = {logger.name: logger.level for logger in _dask_loggers()}
+    callbacks, cancelled = logging.getLogger("tornado.application"), _CancelledFutureFilter()
+    callbacks.addFilter(cancelled)
     try:
         yield
     finally:
+        callbacks.removeFilter(cancelled)
         for logger in _dask_loggers():
             logger.setLevel(levels.get(logger.name, logging.NOTSET))
 
