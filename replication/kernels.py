@@ -6,21 +6,20 @@ want that cost up front, in one place (the test suite's session start, ``replica
 reproduce``, a benchmark setup), call :func:`warm_up`: it runs each kernel once on a tiny
 input with the argument types the package uses. Importing this module compiles nothing.
 
-Compiling everything takes about 37 s of one core in a fresh environment (measured on this
-project's 2-core machine): the shared kernels 2 s, the triangulator and NURBS gridding about
-16 s, the point location and interpolation about 3.5 s, the water-jet model about 15 s.
-numba compiles under the GIL, so ``warm_up(processes=2)`` compiles the interpolation and jet
-kernels in a second Python process, into the same on-disk cache, while this process compiles
-the triangulator and gridding, then loads the helper's kernels from the cache (about 20 s in
-all; 22 s when the helper compiled only the jet kernels). The helper starts only when the
-first kernels had to be compiled: with a warm cache everything only loads (1 s).
+Compiling everything takes about 31 s of one core in a fresh environment (measured on this
+project's 2-core machine). numba compiles under the GIL, so ``warm_up(processes=2)`` compiles
+the interpolation and jet kernels in a second Python process, into the same on-disk cache,
+while this process compiles the triangulator and gridding, then loads the helper's kernels
+from the cache (17.5 s in all). The helper starts only when the first kernels had to be
+compiled: with a warm cache everything only loads (1.2 s).
 
-The two groups share only kernels that both compile with the same argument types (the exact
-predicates, the point location and the nearest-vertex walk of the gridding's fill outside the
-hull; checked with numba's compile events, in both orders), so both processes write the same
-cache entry. Keep it so: numba's cache index is not locked, and two processes
-compiling one kernel for different argument types at the same moment could mix up its
-entries.
+Each group first loads numba's kernel of its entries of the ahead-of-time table
+(:mod:`replication._aot`) by their one signature; the calls that follow then run numba's
+code, and compile their callees. The two groups share only kernels that both compile with the
+same argument types (the exact orientation predicate and its helpers; checked with numba's
+compile events, each group alone on an empty cache), so both processes write the same cache
+entry. Keep it so: numba's cache index is not locked, and two processes compiling one kernel
+for different argument types at the same moment could mix up its entries.
 """
 
 from __future__ import annotations
@@ -81,6 +80,22 @@ def _duplicates_expected() -> Iterator[None]:
         yield
 
 
+#: The kernels of :data:`replication._aot.KERNELS` that each group loads by their one
+#: signature: numba's kernels of small clouds, once loaded, serve every later call instead
+#: of the ahead-of-time ones, whose calls would compile nothing. Every kernel of the table is
+#: in one group (tested).
+TRIANGULATION_KERNELS = ("single", "column_spreads", "raster", "gather", "renumber")
+INTERPOLATION_KERNELS = ("locate", "barycentric", "exits", "nearest")
+JET_KERNELS = ("sheet_prepare", "sheet_trace", "sheet_orientations", "sheet_first_overlap")
+
+
+def _load(names: tuple[str, ...]) -> None:
+    from replication import _aot
+
+    for name in names:
+        _aot.load_numba(name)
+
+
 def _shared():
     """The kernels both groups use: a small ADT surface with the scipy backend (the jet
     kernels' test surface; about 2 s of compiling)."""
@@ -94,15 +109,11 @@ def _triangulation() -> None:
     """The sweep-hull triangulator and the NURBS gridding."""
     import numpy as np
 
-    from replication import _aot
     from replication.surfaces import _grid, _raster, _triangulate, adt, random_cloud
     from replication.surfaces._threads import frozen
     from replication.surfaces.nurbs import fit_nurbs
 
-    for name in _aot.KERNELS:
-        # numba's own kernels of small clouds: once loaded they serve every later call
-        # instead of the ahead-of-time ones (replication._aot)
-        _aot.load_numba(name)
+    _load(TRIANGULATION_KERNELS)
     cloud = random_cloud(64, rng=0)
     lattice = random_cloud(64, step=1.0, rng=0)
     for points in (cloud, lattice):
@@ -121,6 +132,7 @@ def _interpolation(surface) -> None:
 
     from replication.surfaces.interpolate import fill_nearest, interpolate_linear, nearest_vertices
 
+    _load(INTERPOLATION_KERNELS)
     uv = surface.projected()
     depth = surface.points[:, surface.depth_axis]
     far = uv.max(axis=0, keepdims=True) + 1.0  # outside the hull, as a grid node of the gridding
@@ -135,6 +147,7 @@ def _jet(bucket) -> None:
     """The water-jet model's kernels, on a surface and on a bare mesh."""
     from replication.casestudy.jet import jet_force, surface_force
 
+    _load(JET_KERNELS)
     surface_force(bucket)
     jet_force(bucket.points, bucket.triangles)
 

@@ -79,6 +79,18 @@ def _helper(monkeypatch, code):
     return started
 
 
+def test_warm_up_loads_numbas_kernel_of_every_ahead_of_time_entry():
+    """Each kernel of the table is in one warm-up group, and after warm_up numba's serves it."""
+    from replication import _aot, kernels
+
+    groups = (kernels.TRIANGULATION_KERNELS, kernels.INTERPOLATION_KERNELS, kernels.JET_KERNELS)
+    names = [name for group in groups for name in group]
+    assert sorted(names) == sorted(_aot.KERNELS)  # each exactly once
+    warm_up()
+    for name in _aot.KERNELS:
+        assert _aot.kernel(name) is _aot._jit(name), name
+
+
 def test_warm_up_starts_no_helper_when_the_cache_is_warm(monkeypatch):
     started = _helper(monkeypatch, "pass")
     warm_up(processes=2)

@@ -147,7 +147,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     kind = "quick (reduced) run" if args.quick else "full run"
     print(f"replication reproduce: {kind} into {out}/")
     start = time.perf_counter()
-    print("  preparing the compiled kernels (a fresh environment compiles them once: about 25 s)", flush=True)
+    print("  preparing the compiled kernels (a fresh environment compiles them once: about 20 s)", flush=True)
     warm_up(processes=os.cpu_count() or 1)  # in a fresh environment, on two cores at once
     print(f"  [done] kernels: compiled or loaded from numba's cache ({time.perf_counter() - start:.1f} s)")
     written: list[Path] = []
