@@ -303,3 +303,36 @@ def test_abandoning_a_pool_kills_a_worker_that_does_not_unwind(tmp_path):
     assert [p.exitcode for p in processes] == [-signal.SIGKILL]  # killed after the grace, not left running
     with pytest.raises(cf.process.BrokenProcessPool):
         future.result(timeout=20)
+
+
+_CTRL_C_DURING_THE_MESSAGE = """
+import time
+from replication.casestudy.evaluate import executor
+
+def second_ctrl_c():  # the user presses Ctrl-C again as the command says that it waits
+    raise KeyboardInterrupt
+
+with executor("process", workers=1, on_interrupt=second_ctrl_c) as pool:
+    future = pool.submit(time.sleep, 600)
+    while not future.running():
+        time.sleep(0.01)
+    time.sleep(0.5)
+    raise KeyboardInterrupt
+"""
+
+
+def test_ctrl_c_again_while_the_pool_says_it_waits_is_heard():
+    """The message is given inside the guard: the second Ctrl-C abandons the work under way
+    (it used to escape the guard, and the interpreter's exit waited for the task)."""
+    process = subprocess.Popen(
+        [sys.executable, "-c", _CTRL_C_DURING_THE_MESSAGE], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True, start_new_session=True,
+    )  # fmt: skip
+    try:
+        _, err = process.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        process.communicate()
+        pytest.fail("the second Ctrl-C was not heard: the command waited for the task under way")
+    assert process.returncode != 0 and "KeyboardInterrupt" in err
+    assert_no_process_left(process.pid)

@@ -212,14 +212,14 @@ def executor(
             pool = cf.ProcessPoolExecutor(
                 max_workers=n, mp_context=quiet_worker_context(), initializer=worker_initializer
             )
+            interrupted = False
             try:
                 yield pool
             except KeyboardInterrupt:
-                if on_interrupt is not None:
-                    on_interrupt()
+                interrupted = True
                 raise
             finally:
-                _shut_down(pool)
+                _shut_down(pool, on_interrupt if interrupted else None)
                 del pool
     else:
         from replication.casestudy.cluster import dask_executor
@@ -232,9 +232,17 @@ def executor(
 ABANDON_GRACE = 5.0
 
 
-def _shut_down(pool: cf.ProcessPoolExecutor) -> None:
-    """Wait for the work under way and close the pool; a Ctrl-C while waiting abandons that work."""
+def _shut_down(pool: cf.ProcessPoolExecutor, announce: Callable[[], None] | None = None) -> None:
+    """Wait for the work under way and close the pool; a Ctrl-C while waiting abandons that work.
+
+    ``announce`` (the executor's ``on_interrupt``) is called inside the guarded block: a user
+    who presses Ctrl-C again once told that the command waits is always heard. Called before
+    it, a second Ctrl-C in between escaped the guard, and the interpreter's exit then waited
+    for the simulation under way (a hang of minutes, seen once in CI on a loaded machine).
+    """
     try:
+        if announce is not None:
+            announce()
         pool.shutdown(wait=True, cancel_futures=True)
     except KeyboardInterrupt:
         _abandon(pool)
