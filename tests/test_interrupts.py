@@ -219,10 +219,12 @@ def test_ctrl_c_again_abandons_the_simulation_under_way_and_leaves_no_process(tm
         assert not (tmp_path / "finished").exists()
         assert _reaped(driver)  # killed on the way out by its worker, though a session of its own
         assert_no_process_left(process.pid)
-    finally:  # a failure leaves no sleeping driver behind
+    finally:  # a failure leaves no sleeping driver behind, nor open pipes for a later test to trip on
         for pid, kill in ((driver, os.kill), (process.pid, os.killpg)):
             with contextlib.suppress(ProcessLookupError, PermissionError):
                 kill(pid, signal.SIGKILL)
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            process.communicate(timeout=30)
 
 
 _BLOCKED_ON_DASK = """
@@ -269,6 +271,8 @@ def test_ctrl_c_again_kills_a_dask_worker_whose_task_does_not_unwind(tmp_path):
             os.killpg(process.pid, signal.SIGKILL)
         with contextlib.suppress(ProcessLookupError, ValueError, FileNotFoundError):
             os.killpg(int((tmp_path / "blocked").read_text()), signal.SIGKILL)
+        with contextlib.suppress(subprocess.TimeoutExpired):  # its pipes closed, whatever failed
+            process.communicate(timeout=30)
 
 
 def _alive(pid):
