@@ -279,24 +279,21 @@ def _items(text: str) -> list[str] | None:
 
 
 def numba_signature(spec: Kernel):
-    """numba's signature of a kernel of the table (imports numba)."""
+    """numba's signature of a kernel of the table (imports numba), from the same reading of
+    the table's types as the argument checks (:func:`_parse`)."""
     from numba.core import types
+    from numba.np.numpy_support import from_dtype
 
-    def spelled(text: str):
-        items = _items(text)
-        if items is not None:
-            return types.Tuple([spelled(item) for item in items])
-        readonly = text.endswith(" ro")
-        spelling = text.removesuffix(" ro")
-        if "[" not in spelling:
-            return getattr(types, spelling)
-        base, dims = spelling.split("[", 1)
-        layout = "C" if "::1" in dims else "A"
-        return types.Array(getattr(types, base), dims.count(",") + 1, layout, readonly=readonly)
+    def typed(check):
+        if isinstance(check, list):
+            return types.Tuple([typed(item) for item in check])
+        dtype, ndim, readonly = check
+        scalar = from_dtype(dtype)
+        return scalar if ndim == 0 else types.Array(scalar, ndim, "C", readonly=readonly)
 
-    returns = [spelled(t) for t in spec.returns]
+    returns = [types.none if text == "none" else typed(_parse(text)) for text in spec.returns]
     result = types.Tuple(returns) if len(returns) > 1 else returns[0]
-    return result(*(spelled(a) for a in spec.args))
+    return result(*(typed(_parse(a)) for a in spec.args))
 
 
 def load_numba(name: str) -> None:
@@ -350,6 +347,8 @@ def _parse(arg: str):
     if "[" not in text:
         return np.dtype(bool if text == "boolean" else text), 0, False
     base, dims = text.split("[", 1)
+    if not dims.rstrip("]").endswith("::1"):  # the checks require C-contiguous arrays
+        raise ValueError(f"the table's arrays are C-contiguous (last dimension '::1'), got {arg!r}")
     return np.dtype(base), dims.count(",") + 1, readonly
 
 
