@@ -281,7 +281,8 @@ def _gridding_inputs(n: int, seed: int, lattice: bool):
     u = np.linspace(u0, u1, int(rng.integers(2, 30)))
     v = np.linspace(v0, v1, int(rng.integers(2, 30)))
     angle = rng.uniform(0, 2 * np.pi, int(rng.integers(1, 20)))
-    far = np.column_stack([np.cos(angle), np.sin(angle)]) * (np.abs(xy).max() + 1 + rng.uniform(0, 5))
+    reach = np.hypot(xy[:, 0], xy[:, 1]).max() + 1 + rng.uniform(0, 5)  # beyond every vertex: outside
+    far = np.column_stack([np.cos(angle), np.sin(angle)]) * reach
     return surface, xy, depth, tri, u, v, far
 
 
@@ -351,6 +352,7 @@ def test_gridding_kernels_match_numba(n, seed, lattice):
     _both("exits", uv, f(surface.triangles), nbr, far, start, np.zeros(len(far), np.int32), outputs=(5,))
     left = np.empty(len(far), np.int32)
     _aot._jit("exits")(uv, f(surface.triangles), nbr, far, start, left)
+    assert np.all(left >= 0)  # every walk left through the boundary: valid starts for the nearest walk
     queries = f(np.vstack([far, np.random.default_rng(seed).uniform(-2, 2, (20, 2)), uv[:3]]))
     k = len(queries)
     for exhaustive in (False, True):

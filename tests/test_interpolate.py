@@ -99,3 +99,19 @@ def test_grid_depths_match_linear_interpolation_and_nearest_points(step):
         d = ((uv[None, :, :] - nodes[outside][:, None, :]) ** 2).sum(-1)
         first = np.array([np.flatnonzero(row == row.min()).min() for row in d], dtype=int)
         assert np.array_equal(grid.depth.ravel()[outside], depth[first])
+
+
+def test_the_nearest_walks_refuse_start_triangles_they_cannot_read():
+    """The compiled walks read ``start[i]`` without bounds checks: a bad index is an error, not memory."""
+    import pytest
+
+    from replication.surfaces.interpolate import fill_nearest
+
+    uv = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    triangle, alone = np.array([[0, 1, 2]]), np.full((1, 3), -1)
+    for start in ([-1], [1], [0, 0]):
+        with pytest.raises(ValueError, match="start"):
+            nearest_vertices(uv, triangle, alone, [[5.0, 5.0]], start)
+        with pytest.raises(ValueError, match="start"):
+            fill_nearest(uv, triangle, alone, [[5.0, 5.0]], start)
+    assert nearest_vertices(uv, triangle, alone, [[5.0, 5.0]], [0]).tolist() == [1]

@@ -109,7 +109,9 @@ def fill_nearest(
     xy = frozen(uv, np.float64)
     triangles, neighbors = _int32(triangles), _int32(neighbors)
     left = np.empty(queries.shape[0], dtype=np.int32)
-    kernel("exits")(xy, triangles, neighbors, queries, _int32(start), left)
+    start = _int32(start)
+    _check_starts(start, queries.shape[0], triangles.shape[0])
+    kernel("exits")(xy, triangles, neighbors, queries, start, left)
     if np.any(left < 0):
         raise ValueError("fill_nearest: a query lies inside the triangulation")
     out = np.empty(queries.shape[0], dtype=np.int32)
@@ -127,8 +129,18 @@ def nearest_vertices(
     out = np.empty(queries.shape[0], dtype=np.int32)
     xy = frozen(uv, np.float64)
     ids = _int32(np.arange(xy.shape[0]))
-    kernel("nearest")(xy, _int32(triangles), _int32(neighbors), queries, _int32(start), ids, out)
+    triangles, start = _int32(triangles), _int32(start)
+    _check_starts(start, queries.shape[0], triangles.shape[0])
+    kernel("nearest")(xy, triangles, _int32(neighbors), queries, start, ids, out)
     return out
+
+
+def _check_starts(start: np.ndarray, queries: int, triangles: int) -> None:
+    """The nearest-vertex walk reads triangle ``start[i]`` unchecked: one valid index per query."""
+    if start.shape != (queries,):
+        raise ValueError(f"start must hold one triangle per query ({queries}), got shape {start.shape}")
+    if start.size and (start.min() < 0 or start.max() >= triangles):
+        raise ValueError(f"start triangles must lie in 0..{triangles - 1}, got {start.min()}..{start.max()}")
 
 
 def interpolate_linear(
@@ -163,6 +175,10 @@ def interpolate_linear(
         if outside.size:
             near = np.empty(outside.size, dtype=np.int32)
             ids = _int32(np.arange(xy.shape[0]))
-            kernel("nearest")(xy, triangles, nbr, frozen(queries[outside]), _int32(left[outside]), ids, near)
+            start = _int32(left[outside])
+            if np.any(start < 0):  # a walk that did not leave through the boundary: not convex Delaunay
+                raise ValueError("nearest_outside needs a convex Delaunay triangulation: a query is outside "
+                                 "but its walk did not reach the boundary")  # fmt: skip
+            kernel("nearest")(xy, triangles, nbr, frozen(queries[outside]), start, ids, near)
             out[outside] = values[near]
     return (found, out) if located else out
