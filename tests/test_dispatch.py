@@ -236,6 +236,28 @@ def test_one_executor_for_every_run_of_a_command(tmp_path):
     assert (factory.opened, factory.closed) == (1, 1)
 
 
+def test_run_calls_returns_every_result_in_order_and_raises_a_failing_call():
+    calls = [functools.partial(pow, k, 2) for k in range(7)]
+    for factory in (lambda: contextlib.nullcontext(SerialExecutor()), threads):
+        with Dispatcher(factory) as dispatcher:
+            assert dispatcher.run_calls(calls) == [k * k for k in range(7)]
+            assert dispatcher.run_calls([]) == []
+            with pytest.raises(ZeroDivisionError):
+                dispatcher.run_calls([functools.partial(divmod, 1, 0)])
+
+
+def test_one_executor_serves_the_reference_work_and_every_run(tmp_path):
+    """The reference shapes and the timing go to the GA's executor, opened once for all of it."""
+    from replication.experiments.casestudy import run_casestudy
+
+    factory = CountingFactory()
+    config = GAConfig(population=6, generations=2, runs=2, elites=1, seed=5)
+    results = run_casestudy(config, run_dir=tmp_path, pool_factory=factory, timing_repeats=3)
+    assert (factory.opened, factory.closed) == (1, 1)
+    assert list(results.shapes["shape"]) == ["flat plate", "pelton bucket"]
+    assert results.provenance["evaluation_timing"] == {"repeats": 3, "workers_at_once": 1}
+
+
 def test_run_ga_needs_exactly_one_executor_source(tmp_path):
     with pytest.raises(TypeError, match="exactly one"):
         run_ga(SMALL, 0, run_dir=tmp_path)
@@ -304,6 +326,44 @@ def test_no_process_is_left_behind(tmp_path, kind, port_8787_taken):
     assert_no_process_left(process.pid)
 
 
+class TwoWorkersHere(SerialExecutor):
+    """Runs tasks here, one after another, but says it has two workers."""
+
+    def worker_count(self):
+        return 2
+
+
+def _square_unless_armed(armed, died, k):
+    DiesOnceWhenArmed(lambda v: v * v, armed, died)(k)
+    return k * k
+
+
+@pytest.mark.slow
+def test_run_calls_replace_a_broken_pool_and_run_the_lost_calls_again(tmp_path):
+    armed, died = tmp_path / "armed", tmp_path / "died"
+    armed.touch()
+    calls = [functools.partial(_square_unless_armed, str(armed), str(died), k) for k in range(5)]
+    with Dispatcher(functools.partial(executor, "process", workers=2)) as dispatcher:
+        assert dispatcher.run_calls(calls) == [k * k for k in range(5)]
+    assert died.exists() and dispatcher.replaced == 1
+
+
+def test_reference_work_is_shared_by_the_workers_of_a_pool(tmp_path):
+    """With two workers the timing rounds are split in two tasks; the shapes equal the serial ones."""
+    from replication.experiments.casestudy import _reference_work
+
+    config = GAConfig(population=6, generations=2, runs=1, elites=1, seed=5)
+    with Dispatcher(lambda: contextlib.nullcontext(SerialExecutor())) as serial:
+        shapes, evaluation, tasks = _reference_work(config, 4, serial)
+    assert tasks == 1
+    with Dispatcher(lambda: contextlib.nullcontext(TwoWorkersHere())) as pooled:
+        shapes2, evaluation2, tasks2 = _reference_work(config, 5, pooled)
+    assert tasks2 == 2
+    assert shapes.equals(shapes2)  # forces are pure functions of the shape
+    assert list(evaluation2["count"]) == [5, 5, 5]  # every round of both shares is in the summary
+    assert list(evaluation2["vtk_bytes"]) == list(evaluation["vtk_bytes"])
+
+
 # ---- how worker processes start ----------------------------------------------------------------
 
 
@@ -347,3 +407,32 @@ def test_released_kernel_threads_let_the_next_pool_fork():
         assert quiet_worker_context().get_start_method() == ("fork" if linux else "spawn")
     assert _threads.run([lambda: 4, lambda: 5]) == [4, 5]  # and the pool comes back when needed
     release_threads()
+
+
+# ---- the timing rounds split over the workers --------------------------------------------------
+
+
+def test_timing_shares_known_answers():
+    from replication.experiments.casestudy import timing_shares
+
+    assert timing_shares(100, 1) == [100]
+    assert timing_shares(100, 2) == [50, 50]
+    assert timing_shares(5, 2) == [3, 2]
+    assert timing_shares(2, 8) == [1, 1]  # never an empty task
+
+
+@given(st.integers(1, 10_000), st.integers(1, 256))
+def test_timing_shares_cover_every_round_evenly(repeats, workers):
+    from replication.experiments.casestudy import timing_shares
+
+    shares = timing_shares(repeats, workers)
+    assert sum(shares) == repeats and len(shares) == min(repeats, workers)
+    assert min(shares) >= 1 and max(shares) - min(shares) <= 1
+
+
+@pytest.mark.parametrize("repeats, workers", [(0, 2), (10, 0), (-1, 1)])
+def test_timing_shares_refuse_bad_counts(repeats, workers):
+    from replication.experiments.casestudy import timing_shares
+
+    with pytest.raises(ValueError, match=f"repeats={repeats}, workers={workers}"):
+        timing_shares(repeats, workers)

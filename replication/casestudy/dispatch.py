@@ -200,6 +200,41 @@ class Dispatcher:
         self._recent.append(seconds)
         self.cost = statistics.median(self._recent)
 
+    def run_calls(self, calls: Sequence[Callable[[], Any]]) -> list[Any]:
+        """Run independent calls as one task each on the executor; their results, in order.
+
+        For work beside the GA (the case study's reference shapes and timing): each call is
+        submitted at once, so the workers share them. When the executor breaks, it is
+        replaced and the calls without a result run again (``retries`` times at most, as for
+        evaluations). A call that raises raises here; Ctrl-C cancels what has not started.
+
+        Raises
+        ------
+        concurrent.futures.BrokenExecutor
+            When the executor broke and ``retries`` new executors broke in turn.
+        """
+        results: dict[int, Any] = {}
+        broken = 0
+        while len(results) < len(calls):
+            futures: dict[cf.Future, int] = {}
+            try:
+                pool = self.executor()
+                for index, call in enumerate(calls):
+                    if index not in results:
+                        futures[pool.submit(call)] = index
+                for future in cf.as_completed(futures):
+                    results[futures[future]] = future.result()
+            except cf.BrokenExecutor:
+                self.close()
+                self.replaced += 1
+                broken += 1
+                if broken > self.retries:
+                    raise
+            finally:
+                for future in futures:
+                    future.cancel()
+        return [results[index] for index in range(len(calls))]
+
     def evaluate(
         self,
         fitness: Callable[[np.ndarray], float],

@@ -252,11 +252,12 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
         remove_unused_run_dir(plan.run_dir, plan.created)
         raise
     save_casestudy_data(results, plan.out)
-    return results, render_casestudy(plan.out)
+    return results, render_casestudy(plan.out, workers=_workers(args))
 
 
 def _workers(args: argparse.Namespace) -> int:
-    """Evaluations at once, for the cost estimate: the local workers (a named cluster: 1, unknown)."""
+    """The local workers (a named cluster: 1, unknown): evaluations at once for the cost
+    estimate, and processes drawing the report's figures."""
     import os
 
     if args.executor == "serial" or (args.scheduler and not args.workers):

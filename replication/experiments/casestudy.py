@@ -8,6 +8,7 @@ numbers beside ours. Everything is returned as DataFrames; nothing here writes a
 
 from __future__ import annotations
 
+import functools
 import os
 import time
 import warnings
@@ -100,34 +101,60 @@ class CaseStudyResults:
     rescore_cost: pd.DataFrame | None = None  # thin-sheet vs SPH cost, the paper's GA projected
 
 
-def _shapes(config: GAConfig) -> pd.DataFrame:
-    rows = []
+#: The reference shapes of section 6 and the surfaces they are scored on.
+REFERENCE_SHAPES: dict[str, Callable[[], Any]] = {
+    "flat plate": flat_plate_surface,
+    "pelton bucket": pelton_bucket_surface,
+}
+
+
+def _shape_row(config: GAConfig, name: str) -> dict[str, Any]:
+    """One reference shape's force, at the GA's resolution and at 4x (an executor's task)."""
     rho_q_v = config.jet.momentum_flux
-    for name, surface in (("flat plate", flat_plate_surface()), ("pelton bucket", pelton_bucket_surface())):
-        default = surface_force(surface, config.jet, resolution=config.resolution)
-        fine = surface_force(surface, config.jet, resolution=4 * config.resolution)
-        rows.append({
-            "shape": name, "axial_N": default.axial_force, "axial_4x_N": fine.axial_force,
-            "refinement_change_pct": 100 * (fine.axial_force - default.axial_force) / default.axial_force,
-            "force_x_N": default.force[0], "force_y_N": default.force[1], "force_z_N": default.force[2],
-            "rho_q_v_N": rho_q_v, "over_rho_q_v": default.axial_force / rho_q_v,
-            "full_jet_mirrored_N": 2 * default.axial_force,
-            "paper_sph": PAPER_SHAPES[name].quote,
-        })  # fmt: skip
-    return pd.DataFrame(rows)
+    surface = REFERENCE_SHAPES[name]()
+    default = surface_force(surface, config.jet, resolution=config.resolution)
+    fine = surface_force(surface, config.jet, resolution=4 * config.resolution)
+    return {
+        "shape": name, "axial_N": default.axial_force, "axial_4x_N": fine.axial_force,
+        "refinement_change_pct": 100 * (fine.axial_force - default.axial_force) / default.axial_force,
+        "force_x_N": default.force[0], "force_y_N": default.force[1], "force_z_N": default.force[2],
+        "rho_q_v_N": rho_q_v, "over_rho_q_v": default.axial_force / rho_q_v,
+        "full_jet_mirrored_N": 2 * default.axial_force,
+        "paper_sph": PAPER_SHAPES[name].quote,
+    }  # fmt: skip
 
 
-def _evaluation_cost(config: GAConfig, repeats: int) -> pd.DataFrame:
-    """Time of one fitness evaluation (ADT + jet model) and storage of one individual."""
-    fitness = Fitness(config)
+def _timing_genomes(config: GAConfig) -> dict[str, np.ndarray]:
+    """The individuals whose evaluation is timed: the two reference shapes and a random one."""
     from replication.casestudy.ga import genome_from_points
 
-    genomes = {
+    return {
         "flat plate": genome_from_points(flat_plate_cloud(), config),
         "pelton bucket": genome_from_points(pelton_bucket_cloud(), config),
         "random": random_genome(config, rng=np.random.default_rng([config.seed, 99])),
     }
-    timing = interleaved({k: (lambda g=g: fitness(g)) for k, g in genomes.items()}, repeats=repeats, warmup=3)
+
+
+def _time_evaluations(config: GAConfig, repeats: int, warmup: int = 3) -> pd.DataFrame:
+    """Time ``repeats`` interleaved evaluations of each timed individual here (an executor's task)."""
+    fitness = Fitness(config)
+    tasks = {name: functools.partial(fitness, genome) for name, genome in _timing_genomes(config).items()}
+    return interleaved(tasks, repeats=repeats, warmup=warmup)
+
+
+def timing_shares(repeats: int, workers: int) -> list[int]:
+    """Split ``repeats`` timing rounds over at most ``workers`` tasks, as evenly as possible."""
+    if repeats < 1 or workers < 1:
+        raise ValueError(f"need repeats >= 1 and workers >= 1, got {repeats=}, {workers=}")
+    tasks = min(workers, repeats)
+    base, extra = divmod(repeats, tasks)
+    return [base + (k < extra) for k in range(tasks)]
+
+
+def _evaluation_cost(config: GAConfig, timings: list[pd.DataFrame]) -> pd.DataFrame:
+    """Time of one fitness evaluation (ADT + jet model) and storage of one individual."""
+    timing = pd.concat(timings, ignore_index=True)
+    genomes = _timing_genomes(config)
     rows = []
     for name, group in timing.groupby("task", sort=False):
         with warnings.catch_warnings():
@@ -136,6 +163,25 @@ def _evaluation_cost(config: GAConfig, repeats: int) -> pd.DataFrame:
         size = len(legacy_vtk_text(surface.points, surface.triangles).encode())
         rows.append({"individual": name, **summarize(group["seconds"]), "vtk_bytes": size})
     return pd.DataFrame(rows)
+
+
+def _reference_work(
+    config: GAConfig, repeats: int, dispatcher: Dispatcher
+) -> tuple[pd.DataFrame, pd.DataFrame, int]:
+    """The reference shapes' forces and the timing of one evaluation, on the GA's executor.
+
+    Both are independent of the GA, so they run as tasks on its workers before the first
+    generation: the shapes one task each, the timing rounds split over the workers (each
+    worker times its share on its own core, as the GA's evaluations will run). On the serial
+    executor all of it runs here, in order, as before the executor existed. Returns the
+    shapes, the evaluation cost and the number of timing tasks.
+    """
+    shares = timing_shares(repeats, worker_count(dispatcher.executor()))
+    calls = [functools.partial(_shape_row, config, name) for name in REFERENCE_SHAPES]
+    calls += [functools.partial(_time_evaluations, config, share) for share in shares]
+    done = dispatcher.run_calls(calls)
+    shapes = pd.DataFrame(done[: len(REFERENCE_SHAPES)])
+    return shapes, _evaluation_cost(config, done[len(REFERENCE_SHAPES) :]), len(shares)
 
 
 def _claims(
@@ -238,12 +284,10 @@ def run_casestudy(
     Paper section 6, Figs. 8 and 9.
     """
     started = time.perf_counter()
-    # before the GA: the timing has the cores to itself, and worker processes forked later
-    # inherit the kernels these calls load (see .interrupts.quiet_worker_context)
-    shapes = _shapes(config)
-    evaluation = _evaluation_cost(config, timing_repeats)
     runs, histories, best, states = [], [], {}, []
     with Dispatcher(pool_factory) as dispatcher:  # one executor for every run of the command
+        # before the GA, on its executor: the timing has the workers to itself
+        shapes, evaluation, timing_tasks = _reference_work(config, timing_repeats, dispatcher)
         for k in range(config.runs):
             t0 = time.perf_counter()
             state = run_ga(config, k, run_dir=run_dir, dispatcher=dispatcher, resume=resume,
@@ -287,6 +331,7 @@ def run_casestudy(
         seeds=f"run k: numpy default_rng([{config.seed}, k]), k = 0..{config.runs - 1}",
         run_seconds=time.perf_counter() - started,
         ga_seconds=float(runs_frame["wall_s"].sum()),
+        evaluation_timing={"repeats": timing_repeats, "workers_at_once": timing_tasks},
         **extra,
     )
     return CaseStudyResults(

@@ -72,7 +72,7 @@ def rescore_cost(
         f"estimate: the share depends on the GA's size; at most {PAPER_EVALUATIONS})"
     )
     rows = [
-        ("thin-sheet evaluation", 1e3 * thin_sheet_seconds, "ms", "median, serial (ADT + jet model)"),
+        ("thin-sheet evaluation", 1e3 * thin_sheet_seconds, "ms", "median (ADT + jet model)"),
         ("SPH simulation", per_sim, "s", f"median wall time over {len(ok)} simulations "
          f"(range {spread[0]:.3g}-{spread[1]:.3g} s), one core each"),
         ("SPH / thin-sheet", per_sim / thin_sheet_seconds if thin_sheet_seconds > 0 else math.nan, "x", ""),

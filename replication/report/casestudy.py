@@ -7,6 +7,7 @@ surfaces for drawing, which is geometry, not science).
 
 from __future__ import annotations
 
+import functools
 import os
 import warnings
 from pathlib import Path
@@ -24,6 +25,7 @@ from replication.report.casestudy_rescore import rescore_section, save_rescore_d
 from replication.report.casestudy_validation import fitness_note, validation_section  # issue 11
 from replication.report.figures import clear_figures, save_figure
 from replication.report.markdown import fmt, iqr, provenance_section, table
+from replication.report.parallel import run_figure_tasks
 from replication.report.render3d import render_views
 from replication.report.store import read_csv, read_json, write_csv, write_json
 
@@ -78,6 +80,15 @@ def _surface(points: np.ndarray, duplicates: str) -> Any:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DuplicatePointsWarning)
         return adt(points, depth="z", duplicates=duplicates)
+
+
+def _timed_where(prov: dict[str, Any]) -> str:
+    """Where the evaluations were timed: in one process, or on several of the GA's workers at once."""
+    timing = prov.get("evaluation_timing") or {}
+    workers = int(timing.get("workers_at_once", 1))
+    if workers <= 1:
+        return "one process"
+    return f"timed on {workers} of the GA's workers at once, each on its share of the rounds"
 
 
 def _fig8(d: dict[str, Any], stem: Path) -> None:
@@ -145,8 +156,12 @@ def _renders(d: dict[str, Any], figures: Path, duplicates: str) -> tuple[list[st
     return names, render_views(views)
 
 
-def render_casestudy(out_dir: str | os.PathLike[str]) -> Path:
-    """Render ``casestudy.md`` and its figures from the saved data in ``out_dir``."""
+def render_casestudy(out_dir: str | os.PathLike[str], *, workers: int = 1) -> Path:
+    """Render ``casestudy.md`` and its figures from the saved data in ``out_dir``.
+
+    The figures are drawn on up to ``workers`` processes at once
+    (:func:`.parallel.run_figure_tasks`); the files are the same for any number.
+    """
     out = Path(out_dir)
     figures = out / "figures"
     figures.mkdir(parents=True, exist_ok=True)
@@ -155,9 +170,15 @@ def render_casestudy(out_dir: str | os.PathLike[str]) -> Path:
     config = prov["config"]
     jet = config["jet"]
     clear_figures(figures, "casestudy_")  # e.g. casestudy_best_run2.png of an earlier 3-run report
-    _fig8(d, figures / "casestudy_fig8")
-    _fig9(d, figures / "casestudy_fig9", config)
-    renders, renderer = _renders(d, figures, config["duplicates"])
+    drawn = run_figure_tasks(  # the longest first
+        [
+            functools.partial(_renders, d, figures, config["duplicates"]),
+            functools.partial(_fig9, d, figures / "casestudy_fig9", config),
+            functools.partial(_fig8, d, figures / "casestudy_fig8"),
+        ],
+        workers=workers,
+    )
+    renders, renderer = drawn[0]
     rho_q_v = float(d["shapes"]["rho_q_v_N"].iloc[0])
     jet_part = "whole" if jet["full_jet"] else "half"
     shapes = d["shapes"]
@@ -310,8 +331,8 @@ against {fmt(total["evaluations"], "int")} done.
         )
     }
 
-Cost of one evaluation (ADT + jet model, serial, median [IQR]; data: `data/casestudy_evaluation.csv`),
-and the size of the individual's surface as compact legacy VTK:
+Cost of one evaluation (ADT + jet model, {_timed_where(prov)}, median [IQR]; data:
+`data/casestudy_evaluation.csv`), and the size of the individual's surface as compact legacy VTK:
 
 {table(eval_rows, ["individual", "time [ms]", "ADT file [bytes]"])}
 
