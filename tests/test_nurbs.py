@@ -227,3 +227,36 @@ def test_triangulation_must_belong_to_the_cloud():
     a, b = random_cloud(50, rng=1), random_cloud(60, rng=2)
     with pytest.raises(InputError, match="triangulation is of 50 points, the cloud has 60"):
         fit_nurbs(b, triangulation=adt(a))
+
+
+def test_a_patch_copies_arrays_the_caller_can_change_and_keeps_its_own_read_only_ones():
+    from replication.surfaces.patch import NurbsPatch
+
+    rng = np.random.default_rng(3)
+    writable = rng.random((5, 4, 3))
+    patch = _random_patch(rng, 5, 4, 2, False)
+    mine = NurbsPatch(2, 2, patch.knots_u, patch.knots_v, writable, np.ones((5, 4)))
+    writable[0, 0, 0] = 99.0  # the caller's array changes; the patch does not
+    assert mine.control_points[0, 0, 0] != 99.0 and not mine.control_points.flags.writeable
+    frozen = writable.copy()
+    frozen.flags.writeable = False
+    kept = NurbsPatch(2, 2, patch.knots_u, patch.knots_v, frozen, np.ones((5, 4)))
+    assert kept.control_points is frozen  # read-only and its own data: nobody else can change it
+    view = frozen[:, :2]  # read-only but a view: copied
+    copied = NurbsPatch(2, 2, patch.knots_u, patch.knots_v[:-2], view, np.ones((5, 2)))
+    assert copied.control_points is not view
+
+
+def test_the_spline_of_unit_weights_is_that_of_the_points():
+    """Weights 1 evaluate the points' own spline; a rational patch with weights near 1 agrees."""
+    from replication.surfaces.patch import NurbsPatch
+
+    rng = np.random.default_rng(4)
+    plain = _random_patch(rng, 6, 5, 2, False)
+    assert plain.spline.c.shape == (6, 5, 3)
+    nearly = NurbsPatch(2, 2, plain.knots_u, plain.knots_v, plain.control_points, np.full((6, 5), 1 + 1e-15))
+    assert nearly.rational and nearly.spline.c.shape == (6, 5, 4)
+    params = rng.random((50, 2))
+    np.testing.assert_allclose(evaluate(plain, params), evaluate(nearly, params), rtol=0, atol=1e-12)
+    for nu in ((1, 0), (0, 1)):
+        np.testing.assert_allclose(evaluate(plain, params, nu), evaluate(nearly, params, nu), atol=1e-9)

@@ -332,13 +332,15 @@ def fit_nurbs(
     frame[..., surface.projection_axes[0]] = grid.u[:, None]
     frame[..., surface.projection_axes[1]] = grid.v[None, :]
     frame[..., surface.depth_axis] = grid.depth
+    weights = np.ones((shape.m_u, shape.m_v))
+    frame.flags.writeable = weights.flags.writeable = False  # ours alone: the patch keeps them uncopied
     patch = NurbsPatch(
         degree_u=degree,
         degree_v=degree,
         knots_u=clamped_uniform_knots(shape.m_u, degree),
         knots_v=clamped_uniform_knots(shape.m_v, degree),
         control_points=frame,
-        weights=np.ones((shape.m_u, shape.m_v)),
+        weights=weights,
     )
     evaluated = None
     if tessellation is not None:

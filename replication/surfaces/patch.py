@@ -22,6 +22,17 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["NurbsPatch"]
 
 
+def _frozen_float64(value: object) -> bool:
+    """A C-contiguous float64 array that owns its data and is read-only (e.g. made so by the fit)."""
+    return (
+        isinstance(value, np.ndarray)
+        and value.dtype == np.float64
+        and value.base is None
+        and not value.flags.writeable
+        and value.flags.c_contiguous
+    )
+
+
 @dataclass(frozen=True, eq=False)
 class NurbsPatch:
     """A tensor-product NURBS surface: everything a NURBS needs, and nothing else.
@@ -39,8 +50,12 @@ class NurbsPatch:
 
     def __post_init__(self) -> None:
         for a in ("knots_u", "knots_v", "control_points", "weights"):
-            arr = np.array(getattr(self, a), dtype=np.float64)
-            arr.flags.writeable = False
+            given = getattr(self, a)
+            if _frozen_float64(given):  # already a read-only array of its own: kept, not copied
+                arr = given
+            else:  # a copy, so that the caller's array can change without changing the patch
+                arr = np.array(given, dtype=np.float64)
+                arr.flags.writeable = False
             object.__setattr__(self, a, arr)
         object.__setattr__(self, "degree_u", int(self.degree_u))
         object.__setattr__(self, "degree_v", int(self.degree_v))
@@ -65,7 +80,7 @@ class NurbsPatch:
     def net_shape(self) -> tuple[int, int]:
         return (int(self.control_points.shape[0]), int(self.control_points.shape[1]))
 
-    @property
+    @cached_property
     def rational(self) -> bool:
         """False when every weight is 1 (the paper's case: a B-spline in NURBS clothing)."""
         return bool(np.any(self.weights != 1.0))
@@ -88,13 +103,18 @@ class NurbsPatch:
 
     @cached_property
     def spline(self) -> NdBSpline:
-        """scipy ``NdBSpline`` of the homogeneous control points (w x, w y, w z, w)."""
+        """scipy ``NdBSpline`` of the homogeneous control points (w x, w y, w z, w).
+
+        When every weight is 1 (the paper's case) it is the spline of the control points
+        themselves, (x, y, z): the weight column would be 1 everywhere, and the points are
+        used without a copy (a 1000 x 1000 net is 24 MB).
+        """
         from scipy.interpolate import NdBSpline
 
+        knots, degrees = (self.knots_u, self.knots_v), (self.degree_u, self.degree_v)
+        if not self.rational:
+            return NdBSpline(knots, self.control_points, degrees)
         coefficients = np.empty((*self.weights.shape, 4))
-        if self.rational:
-            coefficients[..., :3] = self.control_points * self.weights[..., None]
-        else:  # the paper's case: the points themselves (times 1, exactly)
-            coefficients[..., :3] = self.control_points
+        coefficients[..., :3] = self.control_points * self.weights[..., None]
         coefficients[..., 3] = self.weights
-        return NdBSpline((self.knots_u, self.knots_v), coefficients, (self.degree_u, self.degree_v))
+        return NdBSpline(knots, coefficients, degrees)
