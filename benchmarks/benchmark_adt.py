@@ -38,6 +38,29 @@ class ADTPaperSizes:
     track_adt_vtk_bytes.unit = "bytes"
 
 
+class ADTPaperSizesNumba:
+    """Table 1's point counts on numba's kernels, loaded as after ``replication.kernels.warm_up()``.
+
+    ``ADTPaperSizes.time_adt`` times what a process gets by default: the kernels compiled at
+    install time (no compile, no numba import, but slower per call). Once numba's kernel is
+    loaded in a process it serves every later call; this is that speed (issue 14's row
+    ``adt()`` at 200 points).
+    """
+
+    params = [PAPER_NS]
+    param_names = ["n"]
+
+    def setup(self, n):
+        from replication.kernels import warm_up
+
+        warm_up()
+        self.points = cloud(n)
+        adt(self.points)
+
+    def time_adt(self, n):
+        adt(self.points)
+
+
 class ADTScale:
     """1e3 to 1e6 points with the default backend."""
 
