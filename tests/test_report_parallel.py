@@ -26,19 +26,30 @@ def test_bad_worker_counts_are_refused(workers):
         run_figure_tasks([], workers=workers)
 
 
-@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="figure workers are forked on Linux only")
-def test_calls_run_on_forked_workers_when_that_is_safe(monkeypatch):
-    from replication.kernels import release_threads
+_FORKED = """
+import functools, json, os
+from replication.report.parallel import fork_is_safe, run_figure_tasks
 
-    release_threads()  # the kernels' idle thread pool, started by earlier tests
-    for name in [m for m in sys.modules if m == "vtkmodules" or m.startswith("vtkmodules.")]:
-        monkeypatch.delitem(sys.modules, name)  # as in a command that has not rendered yet
-    if threading.active_count() > 1:
-        pytest.skip("another thread runs in this test process")
-    assert fork_is_safe()
-    done = run_figure_tasks([functools.partial(_pid_and, k) for k in range(3)], workers=2)
-    assert [value for _, value in done] == [0, 1, 2]
-    assert os.getpid() not in {pid for pid, _ in done}
+def pid_and(value):
+    return os.getpid(), value
+
+calls = [functools.partial(pid_and, k) for k in range(3)]
+print(json.dumps([fork_is_safe(), os.getpid(), run_figure_tasks(calls, workers=2)]))
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="figure workers are forked on Linux only")
+def test_calls_run_on_forked_workers_when_that_is_safe():
+    """In a fresh interpreter (one thread, no VTK): the calls run in other processes, in order."""
+    import json
+    import subprocess
+
+    done = subprocess.run([sys.executable, "-c", _FORKED], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    safe, parent, results = json.loads(done.stdout)
+    assert safe
+    assert [value for _, value in results] == [0, 1, 2]
+    assert parent not in {pid for pid, _ in results}
 
 
 def test_no_fork_once_vtk_is_loaded_or_another_thread_runs(monkeypatch):
