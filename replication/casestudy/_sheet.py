@@ -26,6 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
+from replication import _numbacache
 from replication.casestudy._sheetcodes import (
     BOUNDARY,
     SYMMETRY,
@@ -604,3 +605,6 @@ def first_overlap(x, y, tri):
             if _on_edge(x, y, tri, i, j) or _on_edge(x, y, tri, j, i):
                 return min(i, j), max(i, j), 2
     return -1, -1, 0
+
+
+_numbacache.refresh(globals())  # numba keys its cache on this file only (see replication._numbacache)

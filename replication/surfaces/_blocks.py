@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from replication import _numbacache
 from replication.surfaces import _mergehull, _sweephull
 
 __all__ = ["Part", "block", "single"]
@@ -249,3 +250,6 @@ def single(points, ua, va):
         dup,
         rep,
     )
+
+
+_numbacache.refresh(globals())  # numba keys its cache on this file only (see replication._numbacache)

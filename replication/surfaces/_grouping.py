@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from replication import _numbacache
+
 __all__ = []
 
 _M1 = np.uint64(0x9E3779B97F4A7C15)
@@ -41,3 +43,6 @@ def _group_bits(ubits, vbits):
                 break
             slot = (slot + np.uint64(1)) & mask
     return group, first[:n_groups].copy()
+
+
+_numbacache.refresh(globals())  # numba keys its cache on this file only (see replication._numbacache)

@@ -33,6 +33,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from replication import _numbacache
 from replication.surfaces._predicates import incircle, orient
 from replication.surfaces._sweephull import flip_if_illegal, link
 
@@ -237,3 +238,6 @@ def finish(tri, he, inp, lo, hi):
         tri[k] = inp[tri[k]]
         f = he[k]
         he[k] = f // 3 if f >= 0 else -1
+
+
+_numbacache.refresh(globals())  # numba keys its cache on this file only (see replication._numbacache)

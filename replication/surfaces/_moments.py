@@ -11,6 +11,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from replication import _numbacache
+
 __all__ = []
 
 _BLOCK = 1024
@@ -69,3 +71,6 @@ def _small(points, out):
     for c in range(k):
         out[c] = np.sqrt(out[c] / n)
     return finite
+
+
+_numbacache.refresh(globals())  # numba keys its cache on this file only (see replication._numbacache)

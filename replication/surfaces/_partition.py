@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from replication import _numbacache
 from replication.surfaces._threads import run
 
 __all__ = ["BLOCK_POINTS", "PARALLEL_MIN", "SAMPLE_PER_BLOCK", "assign", "columns", "kd_cuts", "levels"]
@@ -110,3 +111,6 @@ def columns(pts, ua, va, idx, xy):
         idx[i] = i
         xy[i, 0] = pts[i, ua]
         xy[i, 1] = pts[i, va]
+
+
+_numbacache.refresh(globals())  # numba keys its cache on this file only (see replication._numbacache)

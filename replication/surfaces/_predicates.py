@@ -17,6 +17,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from replication import _numbacache
+
 __all__ = ["incircle", "orient"]
 
 _EPS = 2.0**-53
@@ -304,3 +306,6 @@ def incircle(ax, ay, bx, by, cx, cy, dx, dy):
     counter-clockwise a, b, c, -1 outside, 0 on it (exact)."""
     sign = _incircle_filter(ax, ay, bx, by, cx, cy, dx, dy)
     return sign if sign != 2.0 else _incircle_exact(ax, ay, bx, by, cx, cy, dx, dy)
+
+
+_numbacache.refresh(globals())  # numba keys its cache on this file only (see replication._numbacache)

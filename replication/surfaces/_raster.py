@@ -19,6 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
+from replication import _numbacache
 from replication.surfaces._predicates import orient
 
 #: Slack (in grid steps) of the candidate range against the rounding of its computation.
@@ -108,3 +109,6 @@ def _renumber(triangles, position, lo, hi, tri):
     for t in range(lo, hi):
         for j in range(3):
             tri[t, j] = position[triangles[t, j]]
+
+
+_numbacache.refresh(globals())  # numba keys its cache on this file only (see replication._numbacache)

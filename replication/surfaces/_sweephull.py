@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from replication import _numbacache
 from replication.surfaces._predicates import incircle, orient
 from replication.surfaces._status import STATUS_COLLINEAR, STATUS_OK, STATUS_SKIPPED
 
@@ -335,3 +336,6 @@ def sweep(xy, lo, hi, i0, i1, i2, ccx, ccy, tri, he, t_lo, hull_next, hull_prev,
         hull_hash[_angle_key(xy[e, 0] - ccx, xy[e, 1] - ccy, mask)] = e
         last = p
     return n_tri, skipped, last
+
+
+_numbacache.refresh(globals())  # numba keys its cache on this file only (see replication._numbacache)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from replication import _numbacache
 from replication.surfaces._predicates import orient
 
 
@@ -217,3 +218,6 @@ def _barycentric(xy, tri, found, queries, values, out):
         lb = _area2(ax, ay, px, py, cx, cy) / den
         lc = _area2(ax, ay, bx, by, px, py) / den
         out[i] = la * values[a] + lb * values[b] + lc * values[c]
+
+
+_numbacache.refresh(globals())  # numba keys its cache on this file only (see replication._numbacache)
