@@ -56,3 +56,14 @@ def test_a_current_stamp_flushes_nothing():
     from replication.surfaces import _moments
 
     assert refresh(vars(_moments)) == []  # the import has just refreshed it
+
+
+def test_every_module_with_cached_kernels_refreshes_its_cache():
+    """A new kernel module that forgot the call would keep stale code after its callees change."""
+    import replication
+
+    package = Path(replication.__file__).parent
+    kernel_modules = [p for p in package.rglob("*.py") if "@njit(cache=True" in p.read_text()]
+    assert len(kernel_modules) >= 10
+    for path in kernel_modules:
+        assert "\n_numbacache.refresh(globals())" in path.read_text(), path.relative_to(package)
