@@ -200,6 +200,16 @@ class Dispatcher:
         self._recent.append(seconds)
         self.cost = statistics.median(self._recent)
 
+    def _replace_broken(self, broken: int, error: cf.BrokenExecutor) -> int:
+        """Close a broken executor (a dead worker took the pool down) so that the next batch
+        opens a new one; returns the count of breaks so far, raising ``error`` once it
+        exceeds ``retries``."""
+        self.close()
+        self.replaced += 1
+        if broken + 1 > self.retries:
+            raise error
+        return broken + 1
+
     def run_calls(self, calls: Sequence[Callable[[], Any]]) -> list[Any]:
         """Run independent calls as one task each on the executor; their results, in order.
 
@@ -224,12 +234,8 @@ class Dispatcher:
                         futures[pool.submit(call)] = index
                 for future in cf.as_completed(futures):
                     results[futures[future]] = future.result()
-            except cf.BrokenExecutor:
-                self.close()
-                self.replaced += 1
-                broken += 1
-                if broken > self.retries:
-                    raise
+            except cf.BrokenExecutor as exc:
+                broken = self._replace_broken(broken, exc)
             finally:
                 for future in futures:
                     future.cancel()
@@ -259,14 +265,10 @@ class Dispatcher:
         while pending or singles:
             try:
                 self._run(fitness, genomes, pending, singles, results, interrupted)
-            except cf.BrokenExecutor:
+            except cf.BrokenExecutor as exc:
                 if interrupted():
                     raise KeyboardInterrupt from None
-                self.close()  # a dead worker took the pool down: the rest runs on a new one
-                self.replaced += 1
-                broken += 1
-                if broken > self.retries:
-                    raise
+                broken = self._replace_broken(broken, exc)
         done = [r for r in results if r is not None]
         assert len(done) == len(genomes), "every genome has an outcome"
         return done

@@ -20,7 +20,6 @@ returns what the report needs to know of it.
 from __future__ import annotations
 
 import sys
-import threading
 from collections.abc import Callable, Sequence
 from typing import TypeVar
 
@@ -31,11 +30,10 @@ T = TypeVar("T")
 
 def fork_is_safe() -> bool:
     """Whether figure tasks may run in processes forked from this one (see the module notes)."""
-    return (
-        sys.platform.startswith("linux")
-        and threading.active_count() == 1
-        and not any(name == "vtkmodules" or name.startswith("vtkmodules.") for name in sys.modules)
-    )
+    from replication.casestudy.interrupts import quiet_worker_context
+
+    vtk = any(name == "vtkmodules" or name.startswith("vtkmodules.") for name in sys.modules)
+    return not vtk and quiet_worker_context().get_start_method() == "fork"
 
 
 def run_figure_tasks(calls: Sequence[Callable[[], T]], *, workers: int = 1) -> list[T]:
