@@ -23,21 +23,51 @@ settings.load_profile("ci" if os.environ.get("CI") else os.environ.get("HYPOTHES
 import pytest  # noqa: E402
 
 
-def pytest_collection_finish(session):
-    """Compile (or load from numba's cache) every compiled kernel once, before the first test,
-    so that in a fresh clone no single test carries the compilation (issue 15 item 5)."""
-    if not session.config.option.collectonly and session.items:
+def _xdist_role(config) -> str:
+    """ "worker" in a pytest-xdist worker, "controller" in the process that runs them, else "".
+
+    The suite runs on pytest-xdist's workers by default (``addopts`` in pyproject.toml);
+    ``-n 0`` or ``-p no:xdist`` runs it in one process.
+    """
+    if hasattr(config, "workerinput"):
+        return "worker"
+    if getattr(config.option, "numprocesses", None) and getattr(config.option, "dist", "no") != "no":
+        return "controller"
+    return ""
+
+
+def pytest_sessionstart(session):
+    """With xdist workers: compile (or load) the kernels once, here, before the workers start,
+    so that in a fresh clone they do not all compile the same kernels at once (xdist starts its
+    workers in a later hook of this same stage)."""
+    config = session.config
+    if _xdist_role(config) == "controller" and not config.option.collectonly:
         from replication.kernels import warm_up
 
         warm_up(processes=2)  # a fresh clone compiles on both cores: 18 s instead of 31 s
 
 
+def pytest_collection_finish(session):
+    """Compile (or load from numba's cache) every compiled kernel once, before the first test,
+    so that in a fresh clone no single test carries the compilation (issue 15 item 5).
+
+    In an xdist worker the controller has compiled them already: this only loads them, so
+    every test runs with numba's kernels loaded, as in a one-process run."""
+    if not session.config.option.collectonly and session.items:
+        from replication.kernels import warm_up
+
+        warm_up(processes=1 if _xdist_role(session.config) == "worker" else 2)
+
+
 @pytest.fixture(scope="session")
 def quick_reports(tmp_path_factory):
-    """``replication reproduce --quick`` once per session, run from a scratch directory.
+    """``replication reproduce --quick`` once per test run, run from a scratch directory.
 
     The directory is a stand-in for a project checkout (the README and pyproject.toml beside
     ``reports/``), so the run also shows what reproducing into a checkout does to its README.
+    Under pytest-xdist the workers share one run: the first worker to ask runs it in the
+    directory all workers' temporary directories share, the others wait for it (a file
+    lock) and read the same reports. Tests must not change them: they work on a copy.
     """
     import os
     import shutil
@@ -45,18 +75,42 @@ def quick_reports(tmp_path_factory):
 
     from replication.cli import main
 
-    work = tmp_path_factory.mktemp("reproduce")
-    root = Path(__file__).resolve().parents[1]
-    for name in ("README.md", "pyproject.toml"):
-        shutil.copy(root / name, work / name)
-    out = work / "reports"
-    previous = os.getcwd()
-    os.chdir(work)  # the GA's checkpoints go to ./casestudy-runs
+    def run(work: Path) -> Path:
+        work.mkdir()
+        root = Path(__file__).resolve().parents[1]
+        for name in ("README.md", "pyproject.toml"):
+            shutil.copy(root / name, work / name)
+        out = work / "reports"
+        previous = os.getcwd()
+        os.chdir(work)  # the GA's checkpoints go to ./casestudy-runs
+        try:
+            assert main(["reproduce", "--quick", "--output-dir", str(out)]) == 0
+        finally:
+            os.chdir(previous)
+        return out
+
     try:
-        assert main(["reproduce", "--quick", "--output-dir", str(out)]) == 0
-    finally:
-        os.chdir(previous)
-    return out
+        import fcntl
+    except ImportError:  # no POSIX file locks: every worker runs its own
+        fcntl = None
+    if os.environ.get("PYTEST_XDIST_WORKER") is None or fcntl is None:
+        return run(tmp_path_factory.mktemp("reproduce"))
+    shared = tmp_path_factory.getbasetemp().parent
+    status = shared / "reproduce-quick.status"
+    with open(shared / "reproduce-quick.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+        if status.is_file():
+            outcome = status.read_text()
+            if outcome != "ok":
+                pytest.fail(f"the quick reproduce failed in another xdist worker: {outcome}")
+            return shared / "reproduce-quick" / "reports"
+        try:
+            out = run(shared / "reproduce-quick")
+        except BaseException as exc:
+            status.write_text(f"{type(exc).__name__}: {exc}".splitlines()[0])
+            raise
+        status.write_text("ok")
+        return out
 
 
 @pytest.fixture

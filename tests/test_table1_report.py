@@ -93,17 +93,21 @@ def test_claims_table_equals_csv(quick_reports):
         assert close(got, data["ours"]), data["claim"]
 
 
-def test_report_rerenders_from_data_alone(quick_reports, monkeypatch, capsys):
+def test_report_rerenders_from_data_alone(quick_reports, tmp_path, monkeypatch, capsys):
+    import shutil
+
     import replication.experiments.table1 as experiment
 
     before = (quick_reports / "table1.md").read_text()
+    copy = tmp_path / "reports"  # the session's reports are shared: re-render a copy
+    shutil.copytree(quick_reports, copy)
 
     def forbidden(*args, **kwargs):
         raise AssertionError("re-rendering must not run the experiment")
 
     monkeypatch.setattr(experiment, "run_table1", forbidden)
-    assert main(["report", "--output-dir", str(quick_reports)]) == 0
-    assert (quick_reports / "table1.md").read_text() == before
+    assert main(["report", "--output-dir", str(copy)]) == 0
+    assert (copy / "table1.md").read_text() == before
     assert "table1.md" in capsys.readouterr().out
 
 
