@@ -24,10 +24,10 @@ import pytest  # noqa: E402
 
 
 def _xdist_role(config) -> str:
-    """ "worker" in a pytest-xdist worker, "controller" in the process that runs them, else "".
+    """This process's part in a pytest-xdist run: "worker", "controller" or "" (no workers).
 
     The suite runs on pytest-xdist's workers by default (``addopts`` in pyproject.toml);
-    ``-n 0`` or ``-p no:xdist`` runs it in one process.
+    ``-n 0`` runs it in one process.
     """
     if hasattr(config, "workerinput"):
         return "worker"
