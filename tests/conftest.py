@@ -75,8 +75,7 @@ def quick_reports(tmp_path_factory):
 
     from replication.cli import main
 
-    def run(work: Path) -> Path:
-        work.mkdir()
+    def run(work: Path) -> Path:  # an empty directory
         root = Path(__file__).resolve().parents[1]
         for name in ("README.md", "pyproject.toml"):
             shutil.copy(root / name, work / name)
@@ -104,8 +103,11 @@ def quick_reports(tmp_path_factory):
             if outcome != "ok":
                 pytest.fail(f"the quick reproduce failed in another xdist worker: {outcome}")
             return shared / "reproduce-quick" / "reports"
+        work = shared / "reproduce-quick"
         try:
-            out = run(shared / "reproduce-quick")
+            shutil.rmtree(work, ignore_errors=True)  # left by a worker that died during the run
+            work.mkdir()
+            out = run(work)
         except BaseException as exc:
             status.write_text(f"{type(exc).__name__}: {exc}".splitlines()[0])
             raise
