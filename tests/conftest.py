@@ -96,14 +96,14 @@ def quick_reports(tmp_path_factory):
         return run(tmp_path_factory.mktemp("reproduce"))
     shared = tmp_path_factory.getbasetemp().parent
     status = shared / "reproduce-quick.status"
+    work = shared / "reproduce-quick"
     with open(shared / "reproduce-quick.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
         if status.is_file():
             outcome = status.read_text()
             if outcome != "ok":
                 pytest.fail(f"the quick reproduce failed in another xdist worker: {outcome}")
-            return shared / "reproduce-quick" / "reports"
-        work = shared / "reproduce-quick"
+            return work / "reports"
         try:
             shutil.rmtree(work, ignore_errors=True)  # left by a worker that died during the run
             work.mkdir()
@@ -113,6 +113,15 @@ def quick_reports(tmp_path_factory):
             raise
         status.write_text("ok")
         return out
+
+
+@pytest.fixture
+def quick_reports_copy(quick_reports, tmp_path):
+    """A copy of the quick reports for a test that re-renders or changes them (the originals
+    are shared by every test, and under xdist by every worker)."""
+    import shutil
+
+    return shutil.copytree(quick_reports, tmp_path / "reports")
 
 
 @pytest.fixture

@@ -93,14 +93,11 @@ def test_claims_table_equals_csv(quick_reports):
         assert close(got, data["ours"]), data["claim"]
 
 
-def test_report_rerenders_from_data_alone(quick_reports, tmp_path, monkeypatch, capsys):
-    import shutil
-
+def test_report_rerenders_from_data_alone(quick_reports_copy, monkeypatch, capsys):
     import replication.experiments.table1 as experiment
 
-    before = (quick_reports / "table1.md").read_text()
-    copy = tmp_path / "reports"  # the session's reports are shared: re-render a copy
-    shutil.copytree(quick_reports, copy)
+    copy = quick_reports_copy
+    before = (copy / "table1.md").read_text()
 
     def forbidden(*args, **kwargs):
         raise AssertionError("re-rendering must not run the experiment")
