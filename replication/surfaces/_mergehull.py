@@ -35,7 +35,7 @@ from numba import njit
 
 from replication import _numbacache
 from replication.surfaces._predicates import incircle, orient
-from replication.surfaces._sweephull import flip_if_illegal, link
+from replication.surfaces._sweephull import legalize, link
 
 __all__ = ["SPARE_SLOTS", "compact", "finish", "grown", "hull_cycle", "merge"]
 
@@ -66,25 +66,6 @@ def hull_cycle(start, hull_next):
         out[k] = v
         v = hull_next[v]
     return out
-
-
-@njit(cache=True, nogil=True)
-def _flip_all(stack, top, xy, tri, he, hull_tri):
-    """Lawson's flips from the half-edges on the stack until every edge is locally Delaunay."""
-    while top > 0:
-        top -= 1
-        a = stack[top]
-        b = flip_if_illegal(a, xy, tri, he, hull_tri)
-        if b == -1:
-            continue
-        if top + 4 > stack.shape[0]:
-            stack = grown(stack, top)
-        # the four outer edges of the flipped pair: (s, q), (q, r), (r, p), (p, s)
-        stack[top] = a
-        stack[top + 1] = a - a % 3 + (a + 1) % 3
-        stack[top + 2] = b
-        stack[top + 3] = b - b % 3 + (b + 1) % 3
-        top += 4
 
 
 @njit(cache=True, inline="always")
@@ -194,7 +175,10 @@ def merge(xy, tri, he, hull, left, right, slots, horizontal):
     hull_prev[rb] = lb
     hull_next[r] = l
     hull_prev[l] = r
-    _flip_all(stack, top, xy, tri, he, hull_tri)
+    while top:  # Lawson's flips, growing the stack when the next flip's pushes may not fit
+        top = legalize(stack, top, xy, tri, he, hull_tri, True)
+        if top:
+            stack = grown(stack, top)
     return used, l
 
 

@@ -38,7 +38,6 @@ __all__ = [
     "STATUS_COLLINEAR",
     "STATUS_OK",
     "STATUS_SKIPPED",
-    "flip_if_illegal",
     "incircle",
     "legalize",
     "link",
@@ -66,64 +65,70 @@ def _angle_key(dx, dy, mask):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def flip_if_illegal(a, xy, tri, he, hull_tri):
-    """Flip the edge of half-edge ``a`` if the point beyond it lies strictly in ``a``'s circle.
+def legalize(stack, top, xy, tri, he, hull_tri, outer):
+    """Lawson's edge flips from the half-edges ``stack[:top]`` until each is locally Delaunay.
 
-    Triangle ``a`` is (p, q, r) with ``a`` running p -> q, its twin ``b`` (q, p, s). The flip
-    puts the two triangles (s, q, r) and (r, p, s) in the same slots, so ``a`` then runs
-    s -> q and ``b`` r -> p; hull half-edges that move to another slot are re-registered in
-    ``hull_tri``. Returns ``b``, or -1 when ``a`` is a hull edge or already locally Delaunay
-    (exact in-circle test: co-circular edges are never flipped, so flips terminate).
+    A half-edge ``a`` of triangle (p, q, r), running p -> q, with twin ``b`` of (q, p, s) is
+    flipped when s lies strictly inside the circle through p, q, r (exact in-circle test:
+    co-circular edges are never flipped, so the flips terminate). The flip puts the two
+    triangles (s, q, r) and (r, p, s) in the same slots, so ``a`` then runs s -> q and ``b``
+    r -> p; hull half-edges that move to another slot are re-registered in ``hull_tri``.
+    After a flip the edges that may have become illegal are pushed: with ``outer`` False
+    (the sweep, where r is the new point) the two across from r, (s, q) and (p, s); with
+    ``outer`` True (the merge's general case) all four outer edges of the pair.
+
+    Returns 0 when the stack is empty, or the stack's height when the next flip's pushes
+    might not fit: the caller grows the stack and calls again (only the merge needs that;
+    in the sweep every flip removes an edge for good, so the stack never holds more entries
+    than the triangulation has edges).
+
+    Written out in one loop, and inlined into its callers, on purpose: a flip kernel of its
+    own (inlined or called) made numba take and drop a reference to every array on each
+    edge visited, atomic operations that cost 25 % of the sweep compiled ahead of time.
     """
-    b = he[a]
-    if b == -1:
-        return -1
-    a0 = a - a % 3
-    b0 = b - b % 3
-    a1 = a0 + (a + 1) % 3
-    a2 = a0 + (a + 2) % 3
-    b2 = b0 + (b + 2) % 3
-    p = tri[a]
-    q = tri[a1]
-    r = tri[a2]
-    s = tri[b2]
-    if incircle(xy[p, 0], xy[p, 1], xy[q, 0], xy[q, 1], xy[r, 0], xy[r, 1], xy[s, 0], xy[s, 1]) <= 0.0:
-        return -1
-    ha2 = he[a2]
-    hb2 = he[b2]
-    tri[a] = s
-    tri[b] = r
-    link(he, a, hb2)
-    if hb2 == -1:
-        hull_tri[s] = a  # hull edge s -> q now lives in slot a
-    link(he, b, ha2)
-    if ha2 == -1:
-        hull_tri[r] = b  # hull edge r -> p now lives in slot b
-    link(he, a2, b2)
-    return b
-
-
-@njit(cache=True, nogil=True)
-def legalize(start, xy, tri, he, hull_tri, stack):
-    """Flip edges opposite a newly inserted point until all are locally Delaunay.
-
-    Every edge on the stack is a half-edge whose triangle has the new point as its apex.
-    All flips of one insertion are incident to the new point and remove an edge for good,
-    so the stack never holds more entries than the triangulation has edges.
-    """
-    top = 0
-    stack[top] = start
-    top += 1
     while top > 0:
+        if top + 3 > stack.shape[0]:
+            return top
         top -= 1
         a = stack[top]
-        b = flip_if_illegal(a, xy, tri, he, hull_tri)
+        b = he[a]
         if b == -1:
             continue
-        # the two edges across from the new point r: (s, q) in slot a and (p, s) after b
+        a0 = a - a % 3
+        b0 = b - b % 3
+        a1 = a0 + (a + 1) % 3
+        a2 = a0 + (a + 2) % 3
+        b2 = b0 + (b + 2) % 3
+        p = tri[a]
+        q = tri[a1]
+        r = tri[a2]
+        s = tri[b2]
+        if incircle(xy[p, 0], xy[p, 1], xy[q, 0], xy[q, 1], xy[r, 0], xy[r, 1], xy[s, 0], xy[s, 1]) <= 0.0:
+            continue
+        ha2 = he[a2]
+        hb2 = he[b2]
+        tri[a] = s
+        tri[b] = r
+        he[a] = hb2
+        if hb2 != -1:
+            he[hb2] = a
+        else:
+            hull_tri[s] = a  # hull edge s -> q now lives in slot a
+        he[b] = ha2
+        if ha2 != -1:
+            he[ha2] = b
+        else:
+            hull_tri[r] = b  # hull edge r -> p now lives in slot b
+        he[a2] = b2
+        he[b2] = a2
         stack[top] = a
+        if outer:  # (s, q) then (q, r), (r, p), (p, s)
+            stack[top + 1] = a1
+            stack[top + 2] = b
+            top += 2
         stack[top + 1] = b - b % 3 + (b + 1) % 3
         top += 2
+    return 0
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -291,7 +296,8 @@ def sweep(xy, lo, hi, i0, i1, i2, ccx, ccy, tri, he, t_lo, hull_next, hull_prev,
         link(he, t + 2, hull_tri[e])
         hull_tri[e] = t
         hull_tri[p] = t + 1
-        legalize(t + 2, xy, tri, he, hull_tri, stack)
+        stack[0] = t + 2
+        legalize(stack, 1, xy, tri, he, hull_tri, False)
 
         # walk forward over further visible edges
         while True:
@@ -306,7 +312,8 @@ def sweep(xy, lo, hi, i0, i1, i2, ccx, ccy, tri, he, t_lo, hull_next, hull_prev,
             link(he, t + 2, hull_tri[nxt])
             link(he, t, hull_tri[p])
             hull_tri[p] = t + 1
-            legalize(t + 2, xy, tri, he, hull_tri, stack)
+            stack[0] = t + 2
+            legalize(stack, 1, xy, tri, he, hull_tri, False)
             hull_next[nxt] = nxt  # removed from the hull
             nxt = q
 
@@ -324,7 +331,8 @@ def sweep(xy, lo, hi, i0, i1, i2, ccx, ccy, tri, he, t_lo, hull_next, hull_prev,
                 link(he, t + 2, hull_tri[q])
                 link(he, t + 1, hull_tri[e])
                 hull_tri[q] = t
-                legalize(t + 2, xy, tri, he, hull_tri, stack)
+                stack[0] = t + 2
+                legalize(stack, 1, xy, tri, he, hull_tri, False)
                 hull_next[e] = e
                 e = q
 
