@@ -129,214 +129,220 @@ def _vertex_at(x, y, tri, t, k, px, py, tol):
     return -1
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _follow(
     mesh, half, convex, zmax, eps, max_steps, min_split, loss, stack, stack_t, top, force, out, tally
 ):
-    """Follow the parcel ``stack[top]`` until it leaves; return the new stack size.
+    """Follow the parcels ``stack[:top + 1]``, the last first, until each has left.
 
-    The parcel is popped; the backward streams it splits off are pushed in its place.
-    ``loss`` is (crease, reimpact): the speed lost turning across a concave crease per unit
-    of (1 - cos turn), and the fraction of speed lost at a re-impact (0, 0: none, the model).
+    A parcel is popped and followed; the backward streams it splits off are pushed in its
+    place and followed in turn. ``loss`` is (crease, reimpact): the speed lost turning across
+    a concave crease per unit of (1 - cos turn), and the fraction of speed lost at a
+    re-impact (0, 0: none, the model).
+
+    One call per streamlet, not per parcel, on purpose: numba takes and drops a reference to
+    every array argument of a call (and of a function it inlines) on each entry, atomic
+    operations that cost about a fifth of the tracer when they ran once per parcel.
     """
     crease, reimpact = loss[0], loss[1]
     x, y, z, tri, nbr, nrm, slope, bnd, edges = mesh
-    px, py, pz, vx, vy, vz, m, root = stack[top]
-    t = stack_t[top]
-    free = top  # the parcel's slot, free for a split-off stream
-    cap = stack.shape[0]
-    state = _SURFACE
-    mirrored = False
-    for _ in range(max_steps):
-        if state == _SURFACE:
-            k, s = _exit_edge(edges, t, px, py, vx, vy)
-            if k < 0:  # at rest
-                break
-            px += s * vx
-            py += s * vy
-            pz = _height(x, y, z, tri, slope, t, px, py)
-            n1x, n1y, n1z = nrm[t, 0], nrm[t, 1], nrm[t, 2]
-            vv = _vertex_at(x, y, tri, t, k, px, py, 1e3 * eps)
-            mirror = False
-            if vv >= 0:  # through a vertex: straight to the facet that holds the direction
-                px, py, pz = x[vv], y[vv], z[vv]
-                nb = _around(x, y, tri, nbr, t, vv, vx, vy)
-                if nb < 0 and half and py == 0.0 and vy < 0.0:  # into the mirror image
-                    nb = _around(x, y, tri, nbr, t, vv, vx, -vy)
-                    mirror = True
-                if nb < 0:
-                    nb = BOUNDARY
-            else:
-                nb = nbr[t, k]
-                if nb == SYMMETRY:
-                    nb = t
-                    mirror = True
-            if nb == BOUNDARY:
-                state = _OUTSIDE
-                mirrored = False
-                continue
-            n2x, n2y, n2z = nrm[nb, 0], nrm[nb, 1], nrm[nb, 2]
-            if mirror:  # the facet's mirror image across y = 0
-                n2y = -n2y
-            vabs = math.sqrt(vx * vx + vy * vy + vz * vz)
-            if vx * n2x + vy * n2y + vz * n2z <= _FLAT * vabs:  # concave or flat: follow the surface
-                wx, wy, wz = _rotate(vx, vy, vz, n1x, n1y, n1z, n2x, n2y, n2z)
-                if crease > 0.0:  # the surrogate's crease loss (issue 11): speed lost with the turn
-                    keep = max(0.0, 1.0 - crease * (1.0 - (vx * wx + vy * wy + vz * wz) / (vabs * vabs)))
-                    wx, wy, wz = keep * wx, keep * wy, keep * wz
-                force[0] += m * (vx - wx)
-                force[2] += m * (vz - wz)
-                if mirror:  # the symmetry plane takes the y component; fold back
-                    wy = -wy
-                else:
-                    force[1] += m * (vy - wy)
-                vx, vy, vz = wx, wy, wz
-            else:  # convex crease: the sheet separates
-                state = _FLYING
-                if mirror:
-                    vy = -vy
-            t = nb
-        elif state == _FLYING:
-            if vz >= 0.0 and pz >= zmax:  # above the surface and rising
-                break
-            gap = pz - _height(x, y, z, tri, slope, t, px, py)
-            rate = vz - slope[t, 0] * vx - slope[t, 1] * vy
-            vabs = math.sqrt(vx * vx + vy * vy + vz * vz)
-            if gap <= eps and abs(rate) * nrm[t, 2] <= _FLAT * vabs:  # grazing: back on the surface
-                vn = vx * nrm[t, 0] + vy * nrm[t, 1] + vz * nrm[t, 2]
-                wx, wy, wz = vx - vn * nrm[t, 0], vy - vn * nrm[t, 1], vz - vn * nrm[t, 2]
-                scale = vabs / math.sqrt(wx * wx + wy * wy + wz * wz)
-                force[0] += m * (vx - wx * scale)
-                force[1] += m * (vy - wy * scale)
-                force[2] += m * (vz - wz * scale)
-                vx, vy, vz = wx * scale, wy * scale, wz * scale
-                pz = _height(x, y, z, tri, slope, t, px, py)
-                state = _SURFACE
-                continue
-            k, s = _exit_edge(edges, t, px, py, vx, vy)
-            # a strike inside this facet; reaching the surface exactly on the far edge hands the
-            # decision to the next facet (grazing a ridge is no impact)
-            if rate < 0.0 and (gap <= eps or k < 0 or gap + rate * s < -eps):
-                s_hit = max(gap, 0.0) / -rate
-                if k >= 0:
-                    s_hit = min(s_hit, s)
-                px += s_hit * vx
-                py += s_hit * vy
-                pz = _height(x, y, z, tri, slope, t, px, py)
-                # a new impact: absorb the normal component, split in the plane of incidence
-                nx, ny, nz = nrm[t, 0], nrm[t, 1], nrm[t, 2]
-                vn = vx * nx + vy * ny + vz * nz
-                tx, ty, tz = vx - vn * nx, vy - vn * ny, vz - vn * nz
-                vn = tx * nx + ty * ny + tz * nz  # project again: exactly in the plane
-                tx, ty, tz = tx - vn * nx, ty - vn * ny, tz - vn * nz
-                tnorm = math.sqrt(tx * tx + ty * ty + tz * tz)
-                back = 0.5 * (1.0 - min(tnorm / vabs, 1.0))
-                keep = 1.0 - reimpact  # the surrogate's re-impact loss (issue 11); 1.0: exact model
-                vout = keep * vabs
-                if back * m >= min_split * root and free < cap:
-                    if tnorm > 1e-9 * vabs:
-                        dx, dy, dz = tx / tnorm, ty / tnorm, tz / tnorm
-                    else:  # head-on (within rounding): split along the facet's x direction
-                        dx, dy, dz = 1.0 - nx * nx, -nx * ny, -nx * nz
-                        dn = math.sqrt(dx * dx + dy * dy + dz * dz)
-                        dx, dy, dz = dx / dn, dy / dn, dz / dn
-                    mb = back * m
-                    mf = m - mb
-                    force[0] += m * vx - (mf - mb) * vout * dx
-                    force[1] += m * vy - (mf - mb) * vout * dy
-                    force[2] += m * vz - (mf - mb) * vout * dz
-                    stack[free, 0], stack[free, 1], stack[free, 2] = px, py, pz
-                    stack[free, 3], stack[free, 4], stack[free, 5] = -vout * dx, -vout * dy, -vout * dz
-                    stack[free, 6] = mb
-                    stack[free, 7] = root
-                    stack_t[free] = t
-                    free += 1
-                    tally[TALLY_PARCELS] += 1.0
-                    m = mf
-                    vx, vy, vz = vout * dx, vout * dy, vout * dz
-                elif tnorm > 1e-9 * vabs:  # too small to split: keep the momentum, lose speed
-                    tx, ty, tz = keep * tx, keep * ty, keep * tz
-                    force[0] += m * (vx - tx)
-                    force[1] += m * (vy - ty)
-                    force[2] += m * (vz - tz)
-                    vx, vy, vz = tx, ty, tz
-                else:  # a small parcel striking head-on stops
-                    state = -1
+    while top >= 0:
+        px, py, pz, vx, vy, vz, m, root = stack[top]
+        t = stack_t[top]
+        free = top  # the parcel's slot, free for a split-off stream
+        cap = stack.shape[0]
+        state = _SURFACE
+        mirrored = False
+        for _ in range(max_steps):
+            if state == _SURFACE:
+                k, s = _exit_edge(edges, t, px, py, vx, vy)
+                if k < 0:  # at rest
                     break
-                state = _SURFACE
-                continue
-            if k < 0:  # rising vertically: nothing to strike
-                break
-            px += s * vx
-            py += s * vy
-            pz = max(pz + s * vz, _height(x, y, z, tri, slope, t, px, py))
-            vv = _vertex_at(x, y, tri, t, k, px, py, 1e3 * eps)
-            if vv >= 0:
-                px, py = x[vv], y[vv]
-                nb = _around(x, y, tri, nbr, t, vv, vx, vy)
-                if nb < 0 and half and py == 0.0 and vy < 0.0:
-                    vy = -vy
+                px += s * vx
+                py += s * vy
+                pz = _height(x, y, z, tri, slope, t, px, py)
+                n1x, n1y, n1z = nrm[t, 0], nrm[t, 1], nrm[t, 2]
+                vv = _vertex_at(x, y, tri, t, k, px, py, 1e3 * eps)
+                mirror = False
+                if vv >= 0:  # through a vertex: straight to the facet that holds the direction
+                    px, py, pz = x[vv], y[vv], z[vv]
                     nb = _around(x, y, tri, nbr, t, vv, vx, vy)
-                if nb < 0:
-                    nb = BOUNDARY
-            else:
-                nb = nbr[t, k]
-            if nb >= 0:
+                    if nb < 0 and half and py == 0.0 and vy < 0.0:  # into the mirror image
+                        nb = _around(x, y, tri, nbr, t, vv, vx, -vy)
+                        mirror = True
+                    if nb < 0:
+                        nb = BOUNDARY
+                else:
+                    nb = nbr[t, k]
+                    if nb == SYMMETRY:
+                        nb = t
+                        mirror = True
+                if nb == BOUNDARY:
+                    state = _OUTSIDE
+                    mirrored = False
+                    continue
+                n2x, n2y, n2z = nrm[nb, 0], nrm[nb, 1], nrm[nb, 2]
+                if mirror:  # the facet's mirror image across y = 0
+                    n2y = -n2y
+                vabs = math.sqrt(vx * vx + vy * vy + vz * vz)
+                if vx * n2x + vy * n2y + vz * n2z <= _FLAT * vabs:  # concave or flat: follow the surface
+                    wx, wy, wz = _rotate(vx, vy, vz, n1x, n1y, n1z, n2x, n2y, n2z)
+                    if crease > 0.0:  # the surrogate's crease loss (issue 11): speed lost with the turn
+                        keep = max(0.0, 1.0 - crease * (1.0 - (vx * wx + vy * wy + vz * wz) / (vabs * vabs)))
+                        wx, wy, wz = keep * wx, keep * wy, keep * wz
+                    force[0] += m * (vx - wx)
+                    force[2] += m * (vz - wz)
+                    if mirror:  # the symmetry plane takes the y component; fold back
+                        wy = -wy
+                    else:
+                        force[1] += m * (vy - wy)
+                    vx, vy, vz = wx, wy, wz
+                else:  # convex crease: the sheet separates
+                    state = _FLYING
+                    if mirror:
+                        vy = -vy
                 t = nb
-            elif nb == SYMMETRY:
-                vy = -vy
-            else:
-                state = _OUTSIDE
-                mirrored = False
-        else:  # outside the footprint: leaves unless it comes back over the surface
-            if vz >= 0.0 and pz >= zmax:
-                break
-            best = np.inf
-            best_j = -1
-            if not convex or mirrored:
-                dl = math.sqrt(vx * vx + vy * vy)
-                for j in range(bnd.shape[0]):
-                    a = tri[bnd[j, 0], bnd[j, 1]]
-                    b = tri[bnd[j, 0], (bnd[j, 1] + 1) % 3]
-                    ex, ey = x[b] - x[a], y[b] - y[a]
-                    den = ex * vy - ey * vx
-                    if den > 0.0:  # crossing from the outside to the inside
-                        s = -(ex * (py - y[a]) - ey * (px - x[a])) / den
-                        if s * dl > 1e3 * eps and s < best:
-                            qx, qy = px + s * vx - x[a], py + s * vy - y[a]
-                            if 0.0 <= qx * ex + qy * ey <= ex * ex + ey * ey:  # within the edge
-                                best = s
-                                best_j = j
-            s_mirror = -py / vy if half and vy < 0.0 else np.inf
-            if s_mirror < best:
-                px += s_mirror * vx
-                py = 0.0
-                pz += s_mirror * vz
-                vy = -vy
-                mirrored = True
-                continue
-            if best_j < 0:
-                break
-            px += best * vx
-            py += best * vy
-            pz += best * vz
-            t = bnd[best_j, 0]
-            if pz < _height(x, y, z, tri, slope, t, px, py) - eps:
-                break  # it passes beneath the surface
-            state = _FLYING
-    else:
-        state = -1  # out of steps: trapped
-    if state == _OUTSIDE or state == _FLYING:
-        tally[TALLY_MASS_OUT] += m
-        out[0] += m * vx
-        out[1] += m * vy
-        out[2] += m * vz
-    else:  # stopped on the surface or trapped: the surface absorbs its momentum
-        force[0] += m * vx
-        force[1] += m * vy
-        force[2] += m * vz
-        tally[TALLY_MASS_TRAPPED] += m
-    return free
+            elif state == _FLYING:
+                if vz >= 0.0 and pz >= zmax:  # above the surface and rising
+                    break
+                gap = pz - _height(x, y, z, tri, slope, t, px, py)
+                rate = vz - slope[t, 0] * vx - slope[t, 1] * vy
+                vabs = math.sqrt(vx * vx + vy * vy + vz * vz)
+                if gap <= eps and abs(rate) * nrm[t, 2] <= _FLAT * vabs:  # grazing: back on the surface
+                    vn = vx * nrm[t, 0] + vy * nrm[t, 1] + vz * nrm[t, 2]
+                    wx, wy, wz = vx - vn * nrm[t, 0], vy - vn * nrm[t, 1], vz - vn * nrm[t, 2]
+                    scale = vabs / math.sqrt(wx * wx + wy * wy + wz * wz)
+                    force[0] += m * (vx - wx * scale)
+                    force[1] += m * (vy - wy * scale)
+                    force[2] += m * (vz - wz * scale)
+                    vx, vy, vz = wx * scale, wy * scale, wz * scale
+                    pz = _height(x, y, z, tri, slope, t, px, py)
+                    state = _SURFACE
+                    continue
+                k, s = _exit_edge(edges, t, px, py, vx, vy)
+                # a strike inside this facet; reaching the surface exactly on the far edge hands the
+                # decision to the next facet (grazing a ridge is no impact)
+                if rate < 0.0 and (gap <= eps or k < 0 or gap + rate * s < -eps):
+                    s_hit = max(gap, 0.0) / -rate
+                    if k >= 0:
+                        s_hit = min(s_hit, s)
+                    px += s_hit * vx
+                    py += s_hit * vy
+                    pz = _height(x, y, z, tri, slope, t, px, py)
+                    # a new impact: absorb the normal component, split in the plane of incidence
+                    nx, ny, nz = nrm[t, 0], nrm[t, 1], nrm[t, 2]
+                    vn = vx * nx + vy * ny + vz * nz
+                    tx, ty, tz = vx - vn * nx, vy - vn * ny, vz - vn * nz
+                    vn = tx * nx + ty * ny + tz * nz  # project again: exactly in the plane
+                    tx, ty, tz = tx - vn * nx, ty - vn * ny, tz - vn * nz
+                    tnorm = math.sqrt(tx * tx + ty * ty + tz * tz)
+                    back = 0.5 * (1.0 - min(tnorm / vabs, 1.0))
+                    keep = 1.0 - reimpact  # the surrogate's re-impact loss (issue 11); 1.0: exact model
+                    vout = keep * vabs
+                    if back * m >= min_split * root and free < cap:
+                        if tnorm > 1e-9 * vabs:
+                            dx, dy, dz = tx / tnorm, ty / tnorm, tz / tnorm
+                        else:  # head-on (within rounding): split along the facet's x direction
+                            dx, dy, dz = 1.0 - nx * nx, -nx * ny, -nx * nz
+                            dn = math.sqrt(dx * dx + dy * dy + dz * dz)
+                            dx, dy, dz = dx / dn, dy / dn, dz / dn
+                        mb = back * m
+                        mf = m - mb
+                        force[0] += m * vx - (mf - mb) * vout * dx
+                        force[1] += m * vy - (mf - mb) * vout * dy
+                        force[2] += m * vz - (mf - mb) * vout * dz
+                        stack[free, 0], stack[free, 1], stack[free, 2] = px, py, pz
+                        stack[free, 3], stack[free, 4], stack[free, 5] = -vout * dx, -vout * dy, -vout * dz
+                        stack[free, 6] = mb
+                        stack[free, 7] = root
+                        stack_t[free] = t
+                        free += 1
+                        tally[TALLY_PARCELS] += 1.0
+                        m = mf
+                        vx, vy, vz = vout * dx, vout * dy, vout * dz
+                    elif tnorm > 1e-9 * vabs:  # too small to split: keep the momentum, lose speed
+                        tx, ty, tz = keep * tx, keep * ty, keep * tz
+                        force[0] += m * (vx - tx)
+                        force[1] += m * (vy - ty)
+                        force[2] += m * (vz - tz)
+                        vx, vy, vz = tx, ty, tz
+                    else:  # a small parcel striking head-on stops
+                        state = -1
+                        break
+                    state = _SURFACE
+                    continue
+                if k < 0:  # rising vertically: nothing to strike
+                    break
+                px += s * vx
+                py += s * vy
+                pz = max(pz + s * vz, _height(x, y, z, tri, slope, t, px, py))
+                vv = _vertex_at(x, y, tri, t, k, px, py, 1e3 * eps)
+                if vv >= 0:
+                    px, py = x[vv], y[vv]
+                    nb = _around(x, y, tri, nbr, t, vv, vx, vy)
+                    if nb < 0 and half and py == 0.0 and vy < 0.0:
+                        vy = -vy
+                        nb = _around(x, y, tri, nbr, t, vv, vx, vy)
+                    if nb < 0:
+                        nb = BOUNDARY
+                else:
+                    nb = nbr[t, k]
+                if nb >= 0:
+                    t = nb
+                elif nb == SYMMETRY:
+                    vy = -vy
+                else:
+                    state = _OUTSIDE
+                    mirrored = False
+            else:  # outside the footprint: leaves unless it comes back over the surface
+                if vz >= 0.0 and pz >= zmax:
+                    break
+                best = np.inf
+                best_j = -1
+                if not convex or mirrored:
+                    dl = math.sqrt(vx * vx + vy * vy)
+                    for j in range(bnd.shape[0]):
+                        a = tri[bnd[j, 0], bnd[j, 1]]
+                        b = tri[bnd[j, 0], (bnd[j, 1] + 1) % 3]
+                        ex, ey = x[b] - x[a], y[b] - y[a]
+                        den = ex * vy - ey * vx
+                        if den > 0.0:  # crossing from the outside to the inside
+                            s = -(ex * (py - y[a]) - ey * (px - x[a])) / den
+                            if s * dl > 1e3 * eps and s < best:
+                                qx, qy = px + s * vx - x[a], py + s * vy - y[a]
+                                if 0.0 <= qx * ex + qy * ey <= ex * ex + ey * ey:  # within the edge
+                                    best = s
+                                    best_j = j
+                s_mirror = -py / vy if half and vy < 0.0 else np.inf
+                if s_mirror < best:
+                    px += s_mirror * vx
+                    py = 0.0
+                    pz += s_mirror * vz
+                    vy = -vy
+                    mirrored = True
+                    continue
+                if best_j < 0:
+                    break
+                px += best * vx
+                py += best * vy
+                pz += best * vz
+                t = bnd[best_j, 0]
+                if pz < _height(x, y, z, tri, slope, t, px, py) - eps:
+                    break  # it passes beneath the surface
+                state = _FLYING
+        else:
+            state = -1  # out of steps: trapped
+        if state == _OUTSIDE or state == _FLYING:
+            tally[TALLY_MASS_OUT] += m
+            out[0] += m * vx
+            out[1] += m * vy
+            out[2] += m * vz
+        else:  # stopped on the surface or trapped: the surface absorbs its momentum
+            force[0] += m * vx
+            force[1] += m * vy
+            force[2] += m * vz
+            tally[TALLY_MASS_TRAPPED] += m
+        top = free - 1
 
 
 @njit(cache=True)
@@ -439,10 +445,22 @@ def trace(mesh, half, convex, sx, sy, smass, start, speed, n_dir, min_split, max
             stack[k, 6] = m0 * weight[k]
             stack[k, 7] = m0 * weight[k]
             stack_t[k] = t0
-        top = n_dir - 1
-        while top >= 0:
-            top = _follow(mesh, half, convex, zmax, eps, max_steps, min_split, loss, stack, stack_t, top,
-                          force, out, tally) - 1  # fmt: skip
+        _follow(
+            mesh,
+            half,
+            convex,
+            zmax,
+            eps,
+            max_steps,
+            min_split,
+            loss,
+            stack,
+            stack_t,
+            n_dir - 1,
+            force,
+            out,
+            tally,
+        )
     return force, out, tally
 
 
