@@ -1,5 +1,8 @@
 """Both triangulation backends give exactly valid Delaunay triangulations of the same vertices."""
 
+import ast
+import inspect
+import textwrap
 from fractions import Fraction
 
 import numba
@@ -299,3 +302,20 @@ def test_the_one_call_path_for_small_clouds_matches_the_general_one():
         general = _triangulate._triangulate(uv, (0, 1), 0)
         for field in ("triangles", "neighbors", "hull", "duplicates", "representatives", "status"):
             assert np.array_equal(getattr(small, field), getattr(general, field)), field
+
+
+def _flip_code(function) -> str:
+    """The statements between a kernel's ``# -- flip: start --`` and ``# -- flip: end --``, as an AST."""
+    lines = inspect.getsource(function.py_func).splitlines()
+    start = next(i for i, line in enumerate(lines) if line.strip() == "# -- flip: start --")
+    end = next(i for i, line in enumerate(lines) if line.strip() == "# -- flip: end --")
+    body = textwrap.dedent("\n".join(lines[start + 1 : end]))
+    return ast.dump(ast.parse("while True:\n" + textwrap.indent(body, "    ")))
+
+
+def test_the_sweep_flips_exactly_as_legalize_does():
+    """The sweep holds a copy of legalize's flip (a call would cost numba's reference counting
+    per triangle): the two copies must stay the same statements, whatever the formatting."""
+    sweep, legalize = _flip_code(_sweephull.sweep), _flip_code(_sweephull.legalize)
+    assert "incircle" in legalize and "hull_tri" in legalize
+    assert sweep == legalize

@@ -82,13 +82,17 @@ def legalize(stack, top, xy, tri, he, hull_tri, outer):
     in the sweep every flip removes an edge for good, so the stack never holds more entries
     than the triangulation has edges).
 
-    Written out in one loop, and inlined into its callers, on purpose: a flip kernel of its
-    own (inlined or called) made numba take and drop a reference to every array on each
-    edge visited, atomic operations that cost 25 % of the sweep compiled ahead of time.
+    Written out in one loop on purpose: numba takes and drops a reference to every array
+    given to a function it calls or inlines, an atomic operation each time, and a flip
+    kernel of its own cost a quarter of the sweep (compiled ahead of time) that way. For
+    the same reason :func:`sweep` holds its own copy of the flip (between the ``-- flip``
+    markers) instead of entering this function once per new triangle; a test keeps the two
+    copies equal. The merge, which flips once per join, inlines this one.
     """
     while top > 0:
         if top + 3 > stack.shape[0]:
             return top
+        # -- flip: start --
         top -= 1
         a = stack[top]
         b = he[a]
@@ -99,28 +103,32 @@ def legalize(stack, top, xy, tri, he, hull_tri, outer):
         a1 = a0 + (a + 1) % 3
         a2 = a0 + (a + 2) % 3
         b2 = b0 + (b + 2) % 3
-        p = tri[a]
-        q = tri[a1]
-        r = tri[a2]
-        s = tri[b2]
-        if incircle(xy[p, 0], xy[p, 1], xy[q, 0], xy[q, 1], xy[r, 0], xy[r, 1], xy[s, 0], xy[s, 1]) <= 0.0:
+        fp = tri[a]
+        fq = tri[a1]
+        fr = tri[a2]
+        fs = tri[b2]
+        if (
+            incircle(xy[fp, 0], xy[fp, 1], xy[fq, 0], xy[fq, 1], xy[fr, 0], xy[fr, 1], xy[fs, 0], xy[fs, 1])
+            <= 0.0
+        ):
             continue
         ha2 = he[a2]
         hb2 = he[b2]
-        tri[a] = s
-        tri[b] = r
+        tri[a] = fs
+        tri[b] = fr
         he[a] = hb2
         if hb2 != -1:
             he[hb2] = a
         else:
-            hull_tri[s] = a  # hull edge s -> q now lives in slot a
+            hull_tri[fs] = a  # hull edge s -> q now lives in slot a
         he[b] = ha2
         if ha2 != -1:
             he[ha2] = b
         else:
-            hull_tri[r] = b  # hull edge r -> p now lives in slot b
+            hull_tri[fr] = b  # hull edge r -> p now lives in slot b
         he[a2] = b2
         he[b2] = a2
+        # -- flip: end --
         stack[top] = a
         if outer:  # (s, q) then (q, r), (r, p), (p, s)
             stack[top + 1] = a1
@@ -286,55 +294,98 @@ def sweep(xy, lo, hi, i0, i1, i2, ccx, ccy, tri, he, t_lo, hull_next, hull_prev,
             skipped += 1
             continue
 
-        # triangle (e, p, nxt) on the visible edge e -> nxt
+        # One triangle per edge that p sees: first on e -> nxt, then walking forward, then
+        # backward when the first visible edge was where the search started. Each is made
+        # Delaunay before the next is added, by the flip loop below: one copy in this loop,
+        # not a call, since numba takes and drops a reference to every array a call (or an
+        # inlined function) is given, which cost a fifth of the sweep when paid per triangle.
         nxt = hull_next[e]
-        t = 3 * (t_lo + n_tri)
-        n_tri += 1
-        tri[t] = e
-        tri[t + 1] = p
-        tri[t + 2] = nxt
-        link(he, t + 2, hull_tri[e])
-        hull_tri[e] = t
-        hull_tri[p] = t + 1
-        stack[0] = t + 2
-        legalize(stack, 1, xy, tri, he, hull_tri, False)
-
-        # walk forward over further visible edges
+        phase = 0  # 0: the first triangle, 1: walking forward, 2: walking backward
         while True:
-            q = hull_next[nxt]
-            if orient(xy[nxt, 0], xy[nxt, 1], xy[q, 0], xy[q, 1], px, py) >= 0.0:
-                break
             t = 3 * (t_lo + n_tri)
-            n_tri += 1
-            tri[t] = nxt
-            tri[t + 1] = p
-            tri[t + 2] = q
-            link(he, t + 2, hull_tri[nxt])
-            link(he, t, hull_tri[p])
-            hull_tri[p] = t + 1
-            stack[0] = t + 2
-            legalize(stack, 1, xy, tri, he, hull_tri, False)
-            hull_next[nxt] = nxt  # removed from the hull
-            nxt = q
-
-        # walk backward when the first visible edge was where the search started
-        if e == start:
-            while True:
+            if phase == 0:  # triangle (e, p, nxt) on the visible edge e -> nxt
+                tri[t] = e
+                tri[t + 1] = p
+                tri[t + 2] = nxt
+                link(he, t + 2, hull_tri[e])
+                hull_tri[e] = t
+                hull_tri[p] = t + 1
+                phase = 1
+            elif phase == 1:  # forward: triangle (nxt, p, q) on the visible edge nxt -> q
+                q = hull_next[nxt]
+                if orient(xy[nxt, 0], xy[nxt, 1], xy[q, 0], xy[q, 1], px, py) >= 0.0:
+                    if e != start:
+                        break
+                    phase = 2
+                    continue
+                tri[t] = nxt
+                tri[t + 1] = p
+                tri[t + 2] = q
+                link(he, t + 2, hull_tri[nxt])
+                link(he, t, hull_tri[p])
+                hull_tri[p] = t + 1
+                hull_next[nxt] = nxt  # removed from the hull
+                nxt = q
+            else:  # backward: triangle (q, p, e) on the visible edge q -> e
                 q = hull_prev[e]
                 if orient(xy[q, 0], xy[q, 1], xy[e, 0], xy[e, 1], px, py) >= 0.0:
                     break
-                t = 3 * (t_lo + n_tri)
-                n_tri += 1
                 tri[t] = q
                 tri[t + 1] = p
                 tri[t + 2] = e
                 link(he, t + 2, hull_tri[q])
                 link(he, t + 1, hull_tri[e])
                 hull_tri[q] = t
-                stack[0] = t + 2
-                legalize(stack, 1, xy, tri, he, hull_tri, False)
-                hull_next[e] = e
+                hull_next[e] = e  # removed from the hull
                 e = q
+            n_tri += 1
+            # legalize(stack, 1, ..., outer=False) from the new triangle's edge opposite p,
+            # written out (its flip is kept equal to legalize's by a test)
+            stack[0] = t + 2
+            top = 1
+            while top > 0:
+                # -- flip: start --
+                top -= 1
+                a = stack[top]
+                b = he[a]
+                if b == -1:
+                    continue
+                a0 = a - a % 3
+                b0 = b - b % 3
+                a1 = a0 + (a + 1) % 3
+                a2 = a0 + (a + 2) % 3
+                b2 = b0 + (b + 2) % 3
+                fp = tri[a]
+                fq = tri[a1]
+                fr = tri[a2]
+                fs = tri[b2]
+                if (
+                    incircle(
+                        xy[fp, 0], xy[fp, 1], xy[fq, 0], xy[fq, 1], xy[fr, 0], xy[fr, 1], xy[fs, 0], xy[fs, 1]
+                    )
+                    <= 0.0
+                ):
+                    continue
+                ha2 = he[a2]
+                hb2 = he[b2]
+                tri[a] = fs
+                tri[b] = fr
+                he[a] = hb2
+                if hb2 != -1:
+                    he[hb2] = a
+                else:
+                    hull_tri[fs] = a  # hull edge s -> q now lives in slot a
+                he[b] = ha2
+                if ha2 != -1:
+                    he[ha2] = b
+                else:
+                    hull_tri[fr] = b  # hull edge r -> p now lives in slot b
+                he[a2] = b2
+                he[b2] = a2
+                # -- flip: end --
+                stack[top] = a
+                stack[top + 1] = b - b % 3 + (b + 1) % 3
+                top += 2
 
         hull_prev[p] = e
         hull_next[e] = p
