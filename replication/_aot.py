@@ -18,9 +18,8 @@ compiled from the same Python source and agree bit for bit, which the tests chec
 1. numba's JIT kernel when it is already loaded in this process (after
    :func:`replication.kernels.warm_up`, or after any earlier call compiled or loaded it):
    once numba's start-up is paid for, its code is the faster one (48 against 56 us for the
-   200-point triangulation kernel; 2.13-2.16 against 2.22-2.30 ms for a jet force, measured
-   before the tracer took its array references once per streamlet; on this project's
-   machine);
+   200-point triangulation kernel; 1.49-2.16 against 1.72-2.35 ms for jet forces on four
+   101-point surfaces; on this project's machine);
 2. otherwise the ahead-of-time kernel, when the extension module exists and was built from
    these very sources (a digest of them is compiled into it, so an edited checkout never runs
    stale code);
