@@ -176,7 +176,7 @@ def merge(xy, tri, he, hull, left, right, slots, horizontal):
     hull_next[r] = l
     hull_prev[l] = r
     while top:  # Lawson's flips, growing the stack when the next flip's pushes may not fit
-        top = legalize(stack, top, xy, tri, he, hull_tri, True)
+        top = legalize(stack, top, xy, tri, he, hull_tri)
         if top:
             stack = grown(stack, top)
     return used, l

@@ -65,7 +65,7 @@ def _angle_key(dx, dy, mask):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def legalize(stack, top, xy, tri, he, hull_tri, outer):
+def legalize(stack, top, xy, tri, he, hull_tri):
     """Lawson's edge flips from the half-edges ``stack[:top]`` until each is locally Delaunay.
 
     A half-edge ``a`` of triangle (p, q, r), running p -> q, with twin ``b`` of (q, p, s) is
@@ -73,21 +73,21 @@ def legalize(stack, top, xy, tri, he, hull_tri, outer):
     co-circular edges are never flipped, so the flips terminate). The flip puts the two
     triangles (s, q, r) and (r, p, s) in the same slots, so ``a`` then runs s -> q and ``b``
     r -> p; hull half-edges that move to another slot are re-registered in ``hull_tri``.
-    After a flip the edges that may have become illegal are pushed: with ``outer`` False
-    (the sweep, where r is the new point) the two across from r, (s, q) and (p, s); with
-    ``outer`` True (the merge's general case) all four outer edges of the pair.
+    After a flip the four outer edges of the pair, which may have become illegal, are
+    pushed. This is the merge's general case (:mod:`._mergehull`, which enters it once per
+    join); the sweep, where every flip has the new point as its apex, pushes only the two
+    edges across from it and needs no capacity check (its stack holds more entries than the
+    triangulation has edges).
 
     Returns 0 when the stack is empty, or the stack's height when the next flip's pushes
-    might not fit: the caller grows the stack and calls again (only the merge needs that;
-    in the sweep every flip removes an edge for good, so the stack never holds more entries
-    than the triangulation has edges).
+    might not fit: the caller grows the stack and calls again.
 
     Written out in one loop on purpose: numba takes and drops a reference to every array
-    given to a function it calls or inlines, an atomic operation each time, and a flip
-    kernel of its own cost a quarter of the sweep (compiled ahead of time) that way. For
-    the same reason :func:`sweep` holds its own copy of the flip (between the ``-- flip``
-    markers) instead of entering this function once per new triangle; a test keeps the two
-    copies equal. The merge, which flips once per join, inlines this one.
+    given to a function it calls or inlines, an atomic operation each time, which its
+    pruning of reference counts did not remove here; a flip kernel of its own cost a quarter
+    of the sweep (compiled ahead of time) that way. For the same reason :func:`sweep` holds
+    its own copy of the flip (between the ``-- flip`` markers) instead of entering a
+    function once per new triangle; a test keeps the two copies equal.
     """
     while top > 0:
         if top + 3 > stack.shape[0]:
@@ -129,13 +129,11 @@ def legalize(stack, top, xy, tri, he, hull_tri, outer):
         he[a2] = b2
         he[b2] = a2
         # -- flip: end --
-        stack[top] = a
-        if outer:  # (s, q) then (q, r), (r, p), (p, s)
-            stack[top + 1] = a1
-            stack[top + 2] = b
-            top += 2
-        stack[top + 1] = b - b % 3 + (b + 1) % 3
-        top += 2
+        stack[top] = a  # (s, q), (q, r), (r, p), (p, s)
+        stack[top + 1] = a1
+        stack[top + 2] = b
+        stack[top + 3] = b - b % 3 + (b + 1) % 3
+        top += 4
     return 0
 
 
@@ -339,8 +337,9 @@ def sweep(xy, lo, hi, i0, i1, i2, ccx, ccy, tri, he, t_lo, hull_next, hull_prev,
                 hull_next[e] = e  # removed from the hull
                 e = q
             n_tri += 1
-            # legalize(stack, 1, ..., outer=False) from the new triangle's edge opposite p,
-            # written out (its flip is kept equal to legalize's by a test)
+            # Lawson's flips from the new triangle's edge opposite p: legalize's flip, written
+            # out (kept equal by a test), pushing only the two edges across from p after each
+            # flip; the stack (3 n + 8) always has room
             stack[0] = t + 2
             top = 1
             while top > 0:
