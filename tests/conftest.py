@@ -59,6 +59,23 @@ def pytest_collection_finish(session):
         warm_up(processes=1 if _xdist_role(session.config) == "worker" else 2)
 
 
+def pytest_collection_modifyitems(session, config, items):
+    """Run one test that needs the shared quick reports first and the others last.
+
+    Building the reports (``reproduce --quick``) takes about half a minute on one core.
+    In collection order, an xdist worker that reached a second such test waited for the
+    first worker to finish it, with its core idle (18 s of a 2.8-minute run). With one of
+    them first, the worker that takes it builds the reports while the other worker runs
+    the tests that do not need them; the rest come when the reports are there. The order
+    is the same in every worker, as xdist requires.
+    """
+    needs = ["quick_reports" in getattr(item, "fixturenames", ()) for item in items]
+    if sum(needs) > 1:
+        first = needs.index(True)
+        later = [item for item, need in zip(items, needs) if need][1:]
+        items[:] = [items[first], *(item for item, need in zip(items, needs) if not need), *later]
+
+
 @pytest.fixture(scope="session")
 def quick_reports(tmp_path_factory):
     """``replication reproduce --quick`` once per test run, run from a scratch directory.
