@@ -61,3 +61,23 @@ def test_reports_outside_a_checkout_touch_no_readme(tmp_path):
     (tmp_path / "pyproject.toml").write_text('[project]\nname = "replication"\n')
     assert checkout_readme(tmp_path / "reports") == tmp_path / "README.md"
     assert checkout_readme(tmp_path / "reports-quick") is None  # only the canonical reports/
+
+
+def test_one_quick_reports_test_runs_first_and_the_others_last():
+    """conftest's order: the worker that takes the first test needing the shared quick
+    reports builds them while the other worker runs tests that do not need them."""
+    from types import SimpleNamespace
+
+    from conftest import pytest_collection_modifyitems
+
+    def item(name, *fixtures):
+        return SimpleNamespace(name=name, fixturenames=[*fixtures, "tmp_path"])
+
+    reports = ("quick_reports_copy", "quick_reports")
+    items = [item("a"), item("r1", *reports[1:]), item("b"), item("r2", *reports)]
+    items += [item("c"), item("r3", *reports)]
+    pytest_collection_modifyitems(None, None, items)
+    assert [i.name for i in items] == ["r1", "a", "b", "c", "r2", "r3"]
+    alone = [item("a"), item("r1", "quick_reports"), item("b")]
+    pytest_collection_modifyitems(None, None, alone)
+    assert [i.name for i in alone] == ["a", "r1", "b"]  # one such test: nobody waits, order kept
