@@ -4,6 +4,8 @@ import warnings
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from replication.errors import DegenerateInputError, DuplicatePointsWarning, InputError
 from replication.surfaces import random_cloud
@@ -260,3 +262,28 @@ def test_the_spline_of_unit_weights_is_that_of_the_points():
     np.testing.assert_allclose(evaluate(plain, params), evaluate(nearly, params), rtol=0, atol=1e-12)
     for nu in ((1, 0), (0, 1)):
         np.testing.assert_allclose(evaluate(plain, params, nu), evaluate(nearly, params, nu), atol=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    n=st.integers(3, 300),
+    lattice=st.booleans(),
+    backend=st.sampled_from(["sweephull", "scipy"]),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_the_hull_s_extremes_are_the_cloud_s(n, lattice, backend, seed):
+    """fit_nurbs takes the projected extent from the hull vertices: the same numbers as over every
+    vertex, also on lattices (collinear hull points, duplicates)."""
+    from replication.surfaces import adt
+
+    rng = np.random.default_rng(seed)
+    points = rng.integers(0, 6, (n, 3)).astype(float) if lattice else rng.random((n, 3))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DuplicatePointsWarning)
+            surface = adt(points, backend=backend)
+    except DegenerateInputError:
+        return
+    for a in surface.projection_axes:
+        column, boundary = surface.points[:, a], surface.points[surface.hull, a]
+        assert (boundary.min(), boundary.max()) == (column.min(), column.max())

@@ -313,9 +313,10 @@ def fit_nurbs(
         if triangulation.n_input != n:
             raise InputError(f"the triangulation is of {triangulation.n_input} points, the cloud has {n}")
         surface = triangulation
-    extent = np.array(
-        [np.max(surface.points[:, a]) - np.min(surface.points[:, a]) for a in surface.projection_axes]
-    )
+    # the extremes of the vertices are hull vertices: the same numbers as over every vertex,
+    # without four passes over a million-point cloud's strided columns (8 ms)
+    boundary = surface.points[surface.hull]
+    extent = np.array([np.max(boundary[:, a]) - np.min(boundary[:, a]) for a in surface.projection_axes])
     if np.any(extent <= 0):
         raise DegenerateInputError(f"the projected cloud has zero extent {extent.tolist()}: no grid spans it")
     if net is None:
