@@ -326,9 +326,13 @@ def _checked(name: str) -> Callable:
     function = getattr(compiled(), name)
     checks = tuple(_parse(arg) for arg in spec.args)
 
-    def call(*args):
-        if len(args) == len(checks) and all(_fits(v, c) for v, c in zip(args, checks)):
-            return function(*args)
+    def call(*args):  # a plain loop: this check is paid on every call of a small kernel
+        if len(args) == len(checks):
+            for value, check in zip(args, checks):
+                if not _fits(value, check):
+                    break
+            else:
+                return function(*args)
         return _jit(name)(*args)
 
     call.__name__ = call.__qualname__ = name
@@ -352,6 +356,10 @@ def _parse(arg: str):
     return np.dtype(base), dims.count(",") + 1, readonly
 
 
+_BOOLS = (bool, np.bool_)
+_INTEGERS = (int, np.integer)
+
+
 def _fits(value, check) -> bool:
     """Whether ``value`` has the type of one argument of a compiled kernel (see :func:`_parse`)."""
     if isinstance(check, list):
@@ -362,16 +370,13 @@ def _fits(value, check) -> bool:
         )
     dtype, ndim, readonly = check
     if ndim == 0:
-        if dtype.kind == "b":
-            return isinstance(value, bool | np.bool_)
-        if dtype.kind == "f":
+        kind = dtype.kind
+        if kind == "b":
+            return isinstance(value, _BOOLS)
+        if kind == "f":
             return isinstance(value, float)  # a Python float or numpy.float64
-        return isinstance(value, int | np.integer) and not isinstance(value, bool)
-    return (
-        isinstance(value, np.ndarray)
-        and value.dtype == dtype
-        and value.ndim == ndim
-        and value.flags.c_contiguous
-        and value.flags.aligned
-        and (readonly or value.flags.writeable)
-    )
+        return isinstance(value, _INTEGERS) and not isinstance(value, bool)
+    if not (isinstance(value, np.ndarray) and value.dtype == dtype and value.ndim == ndim):
+        return False
+    flags = value.flags
+    return flags.c_contiguous and flags.aligned and (readonly or flags.writeable)
