@@ -69,11 +69,10 @@ def pytest_collection_modifyitems(session, config, items):
     the tests that do not need them; the rest come when the reports are there. The order
     is the same in every worker, as xdist requires.
     """
-    needs = ["quick_reports" in getattr(item, "fixturenames", ()) for item in items]
-    if sum(needs) > 1:
-        first = needs.index(True)
-        later = [item for item, need in zip(items, needs) if need][1:]
-        items[:] = [items[first], *(item for item, need in zip(items, needs) if not need), *later]
+    needing = [item for item in items if "quick_reports" in getattr(item, "fixturenames", ())]
+    if len(needing) > 1:
+        others = [item for item in items if "quick_reports" not in getattr(item, "fixturenames", ())]
+        items[:] = [needing[0], *others, *needing[1:]]
 
 
 @pytest.fixture(scope="session")
