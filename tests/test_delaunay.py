@@ -206,9 +206,11 @@ def test_two_blocks_are_exact_and_independent_of_the_thread_count(two_block_clou
     finally:
         numba.set_num_threads(threads)
     assert serial.status == _sweephull.STATUS_OK
-    for field in ("triangles", "neighbors", "hull", "duplicates", "representatives"):
+    for field in ("triangles", "neighbors", "hull", "duplicates", "representatives", "order"):
         assert np.array_equal(getattr(serial, field), getattr(parallel, field)), field
     distinct = np.unique(serial.triangles)
+    # the storage order numbers every vertex once (with duplicates too: it once held their sort)
+    assert np.array_equal(np.sort(serial.order), distinct)
     assert distinct.size == np.unique(uv, axis=0).shape[0]  # the same vertex set as scipy: all
     local = np.searchsorted(distinct, serial.triangles)
     assert_valid_delaunay(uv[distinct], local, exact="compiled")

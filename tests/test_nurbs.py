@@ -287,3 +287,27 @@ def test_the_hull_s_extremes_are_the_cloud_s(n, lattice, backend, seed):
     for a in surface.projection_axes:
         column, boundary = surface.points[:, a], surface.points[surface.hull, a]
         assert (boundary.min(), boundary.max()) == (column.min(), column.max())
+
+
+def test_a_large_cloud_with_duplicates_grids_as_with_qhull():
+    """Regression: with two or more duplicates in a cloud above the one-call size, the sweep's
+    vertex storage order was overwritten by the duplicates' sort, and the gridding read out of
+    bounds (a crash). The order numbers every vertex once; the grid is Qhull's."""
+    import dataclasses
+
+    from replication.surfaces import _triangulate, adt
+
+    rng = np.random.default_rng(3)
+    points = rng.random((_triangulate.SMALL + 3000, 3))
+    points = np.vstack([points, points[:10]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DuplicatePointsWarning)
+        surface = adt(points)
+        ours = fit_nurbs(points, evaluator="fast", tessellation=None, triangulation=surface)
+        qhull = fit_nurbs(points, evaluator="fast", tessellation=None, backend="scipy")
+    assert surface.backend == "sweephull" and surface.n_vertices == points.shape[0] - 10
+    assert np.array_equal(np.sort(surface.vertex_order), np.arange(surface.n_vertices))
+    np.testing.assert_array_equal(ours.grid.filled, qhull.grid.filled)
+    np.testing.assert_allclose(ours.grid.depth, qhull.grid.depth, rtol=0, atol=1e-12)
+    with pytest.raises(InputError, match=r"must number the 5048 vertices once, got shape \(10,\)"):
+        dataclasses.replace(surface, vertex_order=surface.vertex_order[:10])

@@ -201,9 +201,9 @@ def _triangulate(points: np.ndarray, axes: tuple[int, int], levels: int) -> Tria
         order = np.concatenate([inp[p.off : p.off + p.count] for p in parts])
     dup = np.concatenate([p.dup for p in parts]) if levels else parts[0].dup
     rep = np.concatenate([p.rep for p in parts]) if levels else parts[0].rep
-    if dup.shape[0] > 1:
-        order = np.argsort(dup)
-        dup, rep = dup[order], rep[order]
+    if dup.shape[0] > 1:  # sorted by the duplicate's index (a name of its own: ``order`` is returned)
+        by_index = np.argsort(dup)
+        dup, rep = dup[by_index], rep[by_index]
     return Triangulation(
         triangles=tri[:end].reshape(n_tri, 3),
         neighbors=he[:end].reshape(n_tri, 3),

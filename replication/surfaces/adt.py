@@ -185,6 +185,11 @@ class Surface:
         object.__setattr__(self, "hull", _readonly(self.hull))
         if self.vertex_order is not None:
             object.__setattr__(self, "vertex_order", _readonly(self.vertex_order))
+            if self.vertex_order.shape != (self.points.shape[0],):  # kernels index with it unchecked
+                raise InputError(
+                    f"vertex_order must number the {self.points.shape[0]} vertices once, "
+                    f"got shape {self.vertex_order.shape}"
+                )
         object.__setattr__(self, "vertex_of_input", _readonly(self.vertex_of_input))
         object.__setattr__(self, "_input_size", int(self.vertex_of_input.shape[0]))
 
