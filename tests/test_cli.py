@@ -89,6 +89,10 @@ def test_duplicates_reported_not_warned_twice(capsys, tmp_path):
     assert code == 0 and "merged 1 point(s)" in out and err == ""
     code, out, err = run(capsys, "adt", str(tmp_path / "d.csv"), "--depth", "z", "--duplicates", "raise")
     assert code == 1 and "rows 0, 1" in err
+    code, out, err = run(capsys, "nurbs", str(tmp_path / "d.csv"), "--depth", "z", "--net", "3x3")
+    assert code == 0 and "merged 1 point(s) sharing a projected position (policy mean)" in out and err == ""
+    code, out, _ = run(capsys, "nurbs", str(tmp_path / "d.csv"), "--depth", "z", "--net", "3x3", "--json")
+    assert json.loads(out)["points_merged"] == 1
 
 
 @pytest.mark.parametrize(

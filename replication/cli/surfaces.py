@@ -187,6 +187,7 @@ def _cmd_nurbs(args: argparse.Namespace) -> int:
     report: dict[str, Any] = {
         "input": source,
         "points": int(cloud.shape[0]),
+        "points_merged": nurbs.n_merged,
         "depth_axis": nurbs.depth_axis_name,
         "degree": [nurbs.patch.degree_u, nurbs.patch.degree_v],
         "net": [m_u, m_v],
@@ -216,6 +217,8 @@ def _cmd_nurbs(args: argparse.Namespace) -> int:
         f"{nurbs.n_filled} of {m_u * m_v} grid nodes lie outside the cloud's convex hull "
         "and took the nearest point's depth"
     )
+    if nurbs.n_merged:
+        print(f"merged {nurbs.n_merged} point(s) sharing a projected position (policy {args.duplicates})")
     if args.output:
         print(f"wrote {args.output} ({written:,} bytes, {NURBS_KINDS[fmt]})")
     else:

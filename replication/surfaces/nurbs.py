@@ -222,6 +222,9 @@ class NurbsSurface:
         ``"geomdl"`` or ``"fast"``: what produced the tessellation.
     n_input : int
         Points of the cloud.
+    n_merged : int
+        Points merged into another point's vertex before the gridding (their positions
+        repeat another point's projection; see the duplicate policy of :func:`fit_nurbs`).
     """
 
     patch: NurbsPatch
@@ -232,6 +235,7 @@ class NurbsSurface:
     tessellation: np.ndarray | None
     evaluator: str
     n_input: int
+    n_merged: int = 0
 
     @property
     def n_filled(self) -> int:
@@ -364,4 +368,5 @@ def fit_nurbs(
         tessellation=evaluated,
         evaluator=evaluator,
         n_input=surface.n_input,
+        n_merged=surface.n_merged,
     )
