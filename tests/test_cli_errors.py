@@ -251,11 +251,20 @@ def test_random_bytes_npy_never_advises_pickle(capsys, tmp_path):
 
 
 def test_underflowing_coordinates_are_named(capsys, tmp_path):
-    np.save(tmp_path / "tiny.npy", np.random.default_rng(0).random((20, 3)) * 1e-300)
-    code, _, err = run(capsys, "adt", tmp_path / "tiny.npy")
+    """Tiny clouds are scaled exactly and triangulate; a projection axis whose extent is tiny
+    next to the coordinates underflows and is named as such (not as collinear)."""
+    rng = np.random.default_rng(0)
+    for scale in (1e-300, 1e-150):
+        np.save(tmp_path / "tiny.npy", rng.random((20, 3)) * scale)
+        assert run(capsys, "adt", tmp_path / "tiny.npy")[0] == 0
+    thin = np.column_stack([rng.random(20) * 1e-320, rng.random(20), rng.random(20)])
+    np.save(tmp_path / "thin.npy", thin)
+    code, _, err = run(capsys, "adt", tmp_path / "thin.npy", "--depth", "z")
     assert code == 1 and one_line(err, "adt") and "coordinates underflow" in err and "collinear" not in err
-    np.save(tmp_path / "small.npy", np.random.default_rng(0).random((20, 3)) * 1e-150)
-    assert run(capsys, "adt", tmp_path / "small.npy")[0] == 0  # small but representable: fine
+    assert "next to the largest coordinate" in err
+    np.save(tmp_path / "line.npy", np.column_stack([np.arange(4.0), np.zeros(4), np.ones(4)]))
+    code, _, err = run(capsys, "adt", tmp_path / "line.npy", "--depth", "z")
+    assert code == 1 and one_line(err, "adt") and "collinear" in err and "underflow" not in err
 
 
 def test_numeric_header_row_is_detected_or_reported(tmp_path):

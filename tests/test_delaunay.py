@@ -355,3 +355,44 @@ def test_the_triangulator_s_output_is_the_one_the_reports_were_computed_with():
             digest.update(np.ascontiguousarray(a, dtype=np.int64).tobytes())
     assert blocks == [1, 1, 1, 1, 2, 2]
     assert digest.hexdigest() == _TRIANGULATION_DIGEST
+
+
+@pytest.mark.parametrize("n", [300, 5000])
+@pytest.mark.parametrize("exponent", [-1000, -530, -264, -129, 129, 260, 300, 900])
+def test_clouds_beyond_the_predicates_range_are_scaled_exactly(n, exponent):
+    """The exact predicates multiply four coordinates: at 2^260 they overflowed and at 2^-264
+    underflowed, giving non-Delaunay triangles without an error. Scaling by a power of two is
+    exact, so the triangulation must be the unit cloud's, bit for bit, on both paths (one
+    compiled call, blocks), and Qhull's must be valid."""
+    rng = np.random.default_rng(n)
+    uv = rng.random((n, 2))
+    uv[::7] *= 1e-3  # a spread of exponents, all still exact after the scaling
+    reference, _ = planar_delaunay(uv)
+    scaled = np.ldexp(uv, exponent)
+    result, used = planar_delaunay(scaled)
+    assert used == "sweephull"
+    for field in ("triangles", "neighbors", "hull", "duplicates", "representatives", "order"):
+        assert np.array_equal(getattr(result, field), getattr(reference, field)), field
+    if n == 300:
+        assert_valid_delaunay(scaled, result.triangles, exact="fraction")  # rationals: no range
+        qhull, used = planar_delaunay(scaled, backend="scipy")
+        assert used == "scipy"
+        assert_valid_delaunay(scaled, qhull.triangles, exact="fraction")
+
+
+def test_a_range_no_power_of_two_can_hold_is_an_error_not_wrong_triangles():
+    uv = np.array([[1e300, 0.0], [0.0, 1e300], [1e300, 1e300], [1e-300, 5.0]])
+    with pytest.raises(DegenerateInputError, match=r"too wide a range .* from 1e-300 to 1e\+300"):
+        planar_delaunay(uv)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_qhull_is_delaunay_on_map_coordinates(seed):
+    """Qhull is not exact and lost the digits of an offset: 100 m squares at UTM-like
+    positions (1e6 m) gave 15-21 edges that are not locally Delaunay. Centred, they are all."""
+    uv = np.random.default_rng(seed).random((3000, 2)) * 100 + [1e6, 7e5]
+    result, used = planar_delaunay(uv, backend="scipy")
+    assert used == "scipy"
+    assert_valid_delaunay(uv, result.triangles, exact="compiled")
+    sweep, _ = planar_delaunay(uv)
+    assert _triangle_set(result.triangles) == _triangle_set(sweep.triangles)

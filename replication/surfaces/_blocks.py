@@ -15,6 +15,7 @@ from numba import njit
 
 from replication import _numbacache
 from replication.surfaces import _mergehull, _sweephull
+from replication.surfaces._status import SAFE_MAGNITUDE_HIGH, SAFE_MAGNITUDE_LOW, STATUS_RANGE
 
 __all__ = ["Part", "block", "single"]
 
@@ -212,10 +213,14 @@ def single(points, ua, va):
     empty = np.empty(0, dtype=np.int32)
     idx = np.empty(n, dtype=np.int32)
     xy = np.empty((n, 2))
+    top = 0.0
     for i in range(n):
         idx[i] = i
         xy[i, 0] = points[i, ua]
         xy[i, 1] = points[i, va]
+        top = max(top, abs(xy[i, 0]), abs(xy[i, 1]))
+    if top != 0.0 and not SAFE_MAGNITUDE_LOW <= top <= SAFE_MAGNITUDE_HIGH:  # the caller scales the cloud
+        return STATUS_RANGE, empty.reshape(0, 3), empty.reshape(0, 3), empty, empty, empty
     local = np.empty((n, 2))
     keys = np.empty(n)
     i0, i1, i2, cx, cy = _prepare(xy, local, keys)

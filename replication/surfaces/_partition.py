@@ -15,7 +15,16 @@ from numba import njit
 from replication import _numbacache
 from replication.surfaces._threads import run
 
-__all__ = ["BLOCK_POINTS", "PARALLEL_MIN", "SAMPLE_PER_BLOCK", "assign", "columns", "kd_cuts", "levels"]
+__all__ = [
+    "BLOCK_POINTS",
+    "PARALLEL_MIN",
+    "SAMPLE_PER_BLOCK",
+    "assign",
+    "columns",
+    "kd_cuts",
+    "levels",
+    "magnitude",
+]
 
 #: Clouds with at least this many points are triangulated in blocks, in parallel.
 PARALLEL_MIN = 20_000
@@ -102,6 +111,26 @@ def assign(points, axes, cuts, levels, idx, xy) -> np.ndarray:
         for c in range(_CHUNKS)
     ])  # fmt: skip
     return starts
+
+
+@njit(cache=True, nogil=True)
+def _peak(pts, ua, va, lo, hi, out, k):
+    """The largest |u| and |v| of rows lo..hi-1, into ``out[k]``."""
+    top = 0.0
+    for i in range(lo, hi):
+        top = max(top, abs(pts[i, ua]), abs(pts[i, va]))
+    out[k] = top
+
+
+def magnitude(points, axes) -> float:
+    """The largest absolute (u, v) coordinate of a large cloud, read in ``_CHUNKS`` pieces on
+    several threads (one pass, no temporary)."""
+    n = points.shape[0]
+    edges = [n * c // _CHUNKS for c in range(_CHUNKS + 1)]
+    out = np.zeros(_CHUNKS)
+    ua, va = int(axes[0]), int(axes[1])
+    run([(lambda c=c: _peak(points, ua, va, edges[c], edges[c + 1], out, c)) for c in range(_CHUNKS)])
+    return float(out.max())
 
 
 @njit(cache=True, nogil=True)

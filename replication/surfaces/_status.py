@@ -7,7 +7,14 @@ testing an outcome does not import numba: a command that runs on the ahead-of-ti
 
 from __future__ import annotations
 
-__all__ = ["STATUS_COLLINEAR", "STATUS_OK", "STATUS_SKIPPED"]
+__all__ = [
+    "SAFE_MAGNITUDE_HIGH",
+    "SAFE_MAGNITUDE_LOW",
+    "STATUS_COLLINEAR",
+    "STATUS_OK",
+    "STATUS_RANGE",
+    "STATUS_SKIPPED",
+]
 
 #: The block was triangulated.
 STATUS_OK = 0
@@ -15,3 +22,10 @@ STATUS_OK = 0
 STATUS_COLLINEAR = 1
 #: Rounding of a sort key defeated the sweep (a point sorted inside the hull): try again.
 STATUS_SKIPPED = 2
+#: The largest absolute coordinate lies outside [SAFE_MAGNITUDE_LOW, SAFE_MAGNITUDE_HIGH]: the
+#: exact predicates multiply four coordinates, whose products would overflow (above about
+#: 1e77) or underflow (below about 1e-77) there. The caller scales the cloud by a power of
+#: two, exactly, and tries again (see :mod:`.delaunay`).
+STATUS_RANGE = 3
+SAFE_MAGNITUDE_LOW = 2.0**-128
+SAFE_MAGNITUDE_HIGH = 2.0**128

@@ -26,7 +26,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from replication import _aot
-from replication.surfaces._status import STATUS_COLLINEAR, STATUS_OK, STATUS_SKIPPED
+from replication.surfaces._status import (
+    SAFE_MAGNITUDE_HIGH,
+    SAFE_MAGNITUDE_LOW,
+    STATUS_COLLINEAR,
+    STATUS_OK,
+    STATUS_RANGE,
+    STATUS_SKIPPED,
+)
 from replication.surfaces._threads import frozen
 from replication.surfaces._threads import run as _run
 
@@ -97,6 +104,10 @@ def triangulate(
         A power of two: the number of blocks (default: from the number of points, see the
         module notes). When a block cannot be swept on its own (collinear, or rounding
         defeated the sweep) the cloud is triangulated again as one block.
+
+    A cloud whose largest absolute (u, v) coordinate lies outside the exact predicates' range
+    is not triangulated: the status is ``STATUS_RANGE`` and the caller scales it
+    (:func:`.delaunay.planar_delaunay`).
     """
     points = frozen(points, np.float64)
     n = points.shape[0]
@@ -111,6 +122,11 @@ def triangulate(
             order = np.argsort(dup)
             dup, rep = dup[order], rep[order]
         return Triangulation(triangles, neighbors, hull, dup, rep, status, 1)
+    from replication.surfaces._partition import magnitude
+
+    top = magnitude(points, axes) if n >= 3 else 0.0
+    if top != 0.0 and not SAFE_MAGNITUDE_LOW <= top <= SAFE_MAGNITUDE_HIGH:  # the caller scales the cloud
+        return _failed(np.int32, STATUS_RANGE, 1)
     result = _triangulate(points, axes, levels)
     if result.status != STATUS_OK and result.blocks > 1:
         result = _triangulate(points, axes, 0)

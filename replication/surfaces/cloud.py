@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import astuple, dataclass
 
@@ -158,16 +159,24 @@ def underflow(uv: np.ndarray, names: tuple[str, str] = ("u", "v")) -> str | None
     A triangle's orientation is a difference of products of coordinate differences, of the
     order of the two extents' product. Below float64's smallest normal number (about
     2.2e-308) those products underflow to subnormal numbers or zero and every triangle looks
-    flat, so such a cloud would be reported as collinear. Returns a message saying so, or
-    None when the extents are large enough.
+    flat, so such a cloud would be reported as collinear. The triangulator first scales a
+    cloud by a power of two so that its largest coordinate is about 1 (see
+    :mod:`.delaunay`), so the extents are compared after that scaling: only extents tiny
+    next to the coordinates themselves underflow. A zero extent is a line along an axis, not
+    an underflow. Returns a message saying so, or None.
     """
     uv = np.asarray(uv, dtype=np.float64)
     extent = np.ptp(uv, axis=0) if uv.size else np.zeros(2)
     tiny = np.finfo(np.float64).tiny
-    if extent[0] * extent[1] >= tiny:
+    top = float(np.abs(uv).max()) if uv.size else 0.0
+    if top == 0.0 or np.any(extent == 0.0):
+        return None
+    scale = 2.0 ** -math.frexp(top)[1]
+    if (extent[0] * scale) * (extent[1] * scale) >= tiny:
         return None
     return (
         f"the coordinates underflow: the projected points span only {extent[0]:.3g} x {extent[1]:.3g} in "
         f"({names[0]}, {names[1]}), so triangle areas fall below float64's smallest normal number "
-        f"({tiny:.3g}) and no triangle can be told from a line; rescale the cloud (e.g. to millimetres)"
+        f"({tiny:.3g}) next to the largest coordinate, {top:.3g}, and no triangle can be told from a line; "
+        "stretch the thinner axis"
     )

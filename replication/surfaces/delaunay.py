@@ -13,10 +13,20 @@ Both return counter-clockwise triangles with their neighbours and the convex hul
 drops a point silently: a point the backend could not use raises
 :class:`~replication.errors.DegenerateInputError` naming it (the sweep-hull backend first
 retries with Qhull).
+
+**Range.** The exact predicates multiply four coordinates, so products overflow above about
+1e77 and underflow below about 1e-77: a cloud of kilometres given in nanometres, or of
+micrometres given in light years, would get wrong triangles. A cloud whose largest projected
+coordinate lies outside [2^-128, 2^128] is therefore scaled by a power of two, which is exact
+(the triangulation is that of the cloud as given) unless some coordinate would fall below
+float64's normal range; then it is an error, not a guess. Qhull, which is not exact, is given
+coordinates centred on the middle of their bounding box, since it loses the digits an offset
+carries (map coordinates in metres, 1e6 from the origin, gave non-Delaunay triangles).
 """
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 import numpy as np
@@ -50,8 +60,9 @@ def hull_from_neighbors(triangles: np.ndarray, neighbors: np.ndarray) -> np.ndar
 def _scipy(uv: np.ndarray) -> np.ndarray:
     from scipy.spatial import Delaunay, QhullError
 
+    middle = 0.5 * (uv.min(axis=0) + uv.max(axis=0))  # Qhull keeps the digits an offset would take
     try:
-        tri = Delaunay(uv)
+        tri = Delaunay(uv - middle)
     except QhullError as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else "Qhull error"
         raise DegenerateInputError(
@@ -109,6 +120,33 @@ def _qhull(points: np.ndarray, axes: tuple[int, int]):
     )
 
 
+def _scaled(points: np.ndarray, axes: tuple[int, int], top: float) -> tuple[np.ndarray, tuple[int, int]]:
+    """The (u, v) columns times the power of two that puts their largest absolute value
+    ``top`` in [0.5, 1): exact, or an error when a coordinate would leave float64's normal range."""
+    shift = -math.frexp(top)[1]
+    uv = np.ldexp(points[:, list(axes)], shift)
+    if shift < 0 and not np.array_equal(np.ldexp(uv, -shift), points[:, list(axes)]):
+        size = np.abs(points[:, list(axes)])
+        smallest = float(size[size > 0].min())
+        raise DegenerateInputError(
+            f"the projected coordinates span too wide a range to triangulate exactly: from {smallest:.3g} to "
+            f"{top:.3g} in absolute value (products of four overflow float64 unless the small ones are "
+            "rounded); rescale the cloud or drop the outlying points"
+        )
+    return uv, (0, 1)
+
+
+def _in_range(points: np.ndarray, axes: tuple[int, int]) -> tuple[np.ndarray, tuple[int, int]]:
+    """``(points, axes)`` when the largest absolute (u, v) coordinate lies in the exact
+    predicates' range (every cloud of sane units), else the scaled (u, v) columns."""
+    from replication.surfaces._status import SAFE_MAGNITUDE_HIGH, SAFE_MAGNITUDE_LOW
+
+    top = float(np.abs(points[:, list(axes)]).max()) if points.shape[0] else 0.0
+    if top == 0.0 or SAFE_MAGNITUDE_LOW <= top <= SAFE_MAGNITUDE_HIGH:
+        return points, axes
+    return _scaled(points, axes, top)
+
+
 def planar_delaunay(points: np.ndarray, axes: tuple[int, int] = (0, 1), *, backend: Backend = "auto"):
     """Delaunay triangulation of the distinct positions of columns ``axes`` of ``points``.
 
@@ -136,16 +174,19 @@ def planar_delaunay(points: np.ndarray, axes: tuple[int, int] = (0, 1), *, backe
     if backend not in BACKENDS:
         raise InputError(f"unknown triangulation backend {backend!r}; choose one of {BACKENDS}")
     if backend != "scipy":
-        from replication.surfaces._status import STATUS_COLLINEAR, STATUS_OK
+        from replication.surfaces._status import STATUS_COLLINEAR, STATUS_OK, STATUS_RANGE
         from replication.surfaces._triangulate import triangulate
 
         result = triangulate(points, axes)
+        if result.status == STATUS_RANGE:  # scaled exactly: the indices and triangles are the cloud's
+            points, axes = _in_range(points, axes)
+            result = triangulate(points, axes)
         if result.status == STATUS_OK:
             return result, "sweephull"
         if result.status == STATUS_COLLINEAR:
             raise _too_few_or_collinear(points, axes)
         # rounding defeated the sweep; Qhull is slower but handles it
-    return _qhull(points, axes), "scipy"
+    return _qhull(*_in_range(points, axes)), "scipy"
 
 
 def delaunay_2d(uv: np.ndarray, *, backend: Backend = "auto") -> tuple[np.ndarray, str]:
