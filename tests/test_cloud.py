@@ -59,6 +59,31 @@ def test_bad_step(step):
         random_cloud(5, step=step)
 
 
+@pytest.mark.parametrize("step", [1e-300, 5e-324, 36 / 2**53])
+def test_a_step_too_fine_for_the_box_is_named_not_a_memory_error(step):
+    """The lattice was built in full before the draws: a step of 1e-300 asked numpy for 3.6e301
+    values ('Maximum allowed size exceeded'), and one of 1e-9 for 288 GB."""
+    with pytest.raises(InputError, match=r"step .* is too fine for the range \[0, 36\]: .* at most 2\^53"):
+        random_cloud(5, step=step)
+
+
+@pytest.mark.parametrize("step", [1.0, 0.3, 1e-9])
+def test_lattice_draws_are_the_lattice_s_values(step):
+    """Drawn without building the lattice, the coordinates are exactly those of lattice_values
+    at the same draws (the committed reports' seeded clouds do not change)."""
+    box = Box(-1.5, 2.0, 0.0, 30.0, 3.0, 3.0)
+    cloud = random_cloud(400, box, step=step, rng=7)
+    gen = np.random.default_rng(7)
+    for axis in range(3):
+        lo, hi = box.lower[axis], box.upper[axis]
+        if step < 1e-6:  # the lattice is too big to build here: lattice_values' formula
+            k = gen.integers(0, int(np.floor((hi - lo) / step * (1 + 1e-12) + 1e-9)) + 1, size=400)
+            np.testing.assert_array_equal(cloud[:, axis], lo + step * k.astype(np.float64))
+        else:
+            values = lattice_values(lo, hi, step)
+            np.testing.assert_array_equal(cloud[:, axis], values[gen.integers(0, values.size, size=400)])
+
+
 def test_bad_boxes():
     with pytest.raises(InputError, match="xmin > xmax"):
         Box(1, 0, 0, 1, 0, 1)

@@ -38,7 +38,7 @@ import numpy as np
 from replication.casestudy.jet import DEFAULT_RESOLUTION, JetConfig
 from replication.casestudy.units import to_millimetres
 from replication.errors import InputError
-from replication.surfaces.cloud import lattice_values
+from replication.surfaces.cloud import lattice_count
 
 __all__ = [
     "GAConfig",
@@ -135,9 +135,7 @@ class GAConfig:
 
 def genome_bounds(config: GAConfig) -> np.ndarray:
     """Largest lattice index of each gene (its axis's number of lattice values minus 1)."""
-    per_axis = [
-        lattice_values(config.box[2 * k], config.box[2 * k + 1], config.step).size - 1 for k in range(3)
-    ]
+    per_axis = [lattice_count(config.box[2 * k], config.box[2 * k + 1], config.step) - 1 for k in range(3)]
     return np.tile(np.asarray(per_axis, dtype=np.int64), config.points)
 
 

@@ -14,7 +14,9 @@ from replication.errors import InputError, shown
 __all__ = [
     "Box",
     "CASE_STUDY_BOX",
+    "MAX_LATTICE_VALUES",
     "as_cloud",
+    "lattice_count",
     "lattice_values",
     "make_rng",
     "random_cloud",
@@ -68,12 +70,27 @@ class Box:
 CASE_STUDY_BOX = Box(0.0, 36.0, 0.0, 30.0, 0.0, 13.0)
 
 
-def lattice_values(lo: float, hi: float, step: float) -> np.ndarray:
-    """Lattice coordinates ``lo + k * step`` inside ``[lo, hi]`` (k = 0, 1, ...)."""
+#: Most lattice values per axis: beyond 2^53 the indices k are no longer exact in float64.
+MAX_LATTICE_VALUES = 2**53
+
+
+def lattice_count(lo: float, hi: float, step: float) -> int:
+    """Number of lattice coordinates ``lo + k * step`` inside ``[lo, hi]`` (k = 0, 1, ...)."""
     if not (np.isfinite(step) and step > 0):
         raise InputError(f"discretisation step must be positive and finite, got {step=}")
-    count = int(np.floor((hi - lo) / step * (1 + 1e-12) + 1e-9)) + 1
-    return lo + step * np.arange(count)
+    with np.errstate(over="ignore"):  # a step of 5e-324: an infinite count, named below
+        last = np.floor((hi - lo) / step * (1 + 1e-12) + 1e-9)
+    if not last < MAX_LATTICE_VALUES:
+        raise InputError(
+            f"discretisation step {step:g} is too fine for the range [{lo:g}, {hi:g}]: "
+            f"{last:.3g} lattice values, at most 2^53 per axis"
+        )
+    return int(last) + 1
+
+
+def lattice_values(lo: float, hi: float, step: float) -> np.ndarray:
+    """Lattice coordinates ``lo + k * step`` inside ``[lo, hi]`` (k = 0, 1, ...)."""
+    return lo + step * np.arange(lattice_count(lo, hi, step))
 
 
 def random_cloud(
@@ -115,9 +132,9 @@ def random_cloud(
     if step is None:
         return lo + (hi - lo) * gen.random((int(n), 3))
     columns = []
-    for axis in range(3):
-        values = lattice_values(lo[axis], hi[axis], step)
-        columns.append(values[gen.integers(0, values.size, size=int(n))])
+    for axis in range(3):  # lattice_values(...)[k] without the lattice (fine steps make it huge)
+        count = lattice_count(lo[axis], hi[axis], step)
+        columns.append(lo[axis] + step * gen.integers(0, count, size=int(n)))
     return np.column_stack(columns)
 
 
