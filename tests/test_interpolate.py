@@ -115,3 +115,30 @@ def test_the_nearest_walks_refuse_start_triangles_they_cannot_read():
         with pytest.raises(ValueError, match="start"):
             fill_nearest(uv, triangle, alone, [[5.0, 5.0]], start)
     assert nearest_vertices(uv, triangle, alone, [[5.0, 5.0]], [0]).tolist() == [1]
+
+
+def test_the_kernels_index_arrays_are_checked_not_read_out_of_bounds():
+    """locate, interpolate_linear, fill_nearest and nearest_vertices hand their index arrays to
+    compiled kernels without bounds checks: a vertex index past the points, a neighbour past the
+    triangles or a short value array crashed the process or returned memory (1.9e-322)."""
+    from replication.errors import InputError
+    from replication.surfaces.interpolate import fill_nearest
+
+    uv = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    good, alone, q = np.array([[0, 1, 2]]), np.full((1, 3), -1), np.array([[0.2, 0.2]])
+    far = np.array([[5.0, 5.0]])
+    cases = [
+        (lambda: interpolate_linear(uv, [[0, 1, 2_000_000]], np.zeros(3), q), r"in 0..2, got 0..2000000"),
+        (lambda: interpolate_linear(uv, [[0, 1, -1]], np.zeros(3), q), r"must lie in 0..2, got -1..1"),
+        (lambda: interpolate_linear(uv, good, np.zeros(1), q), r"per vertex \(3\), got shape \(1,\)"),
+        (lambda: locate(uv, good, far, neighbors=[[7_000_000] * 3]), r"0..0 or be negative, got 7000000"),
+        (lambda: locate(uv, good, far, neighbors=[[-1, -1]]), r"the triangles' shape \(1, 3\), got \(1, 2\)"),
+        (lambda: locate(uv[:, :1], good, far), r"vertex positions must have shape \(n, 2\), got \(3, 1\)"),
+        (lambda: nearest_vertices(uv, [[0, 1, 3]], alone, far, [0]), r"must lie in 0..2, got 0..3"),
+        (lambda: fill_nearest(uv, good, [[5, -1, -1]], far, [0]), r"must lie in 0..0 or be negative, got 5"),
+        (lambda: fill_nearest(uv, good, alone, far, [0], ids=[0, 1]), r"ids must hold one number per vertex"),
+    ]  # fmt: skip
+    for call, match in cases:
+        with pytest.raises(InputError, match=match):
+            call()
+    assert interpolate_linear(uv, good, np.array([1.0, 2.0, 3.0]), q)[0] == pytest.approx(1.6)

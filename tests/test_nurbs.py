@@ -311,3 +311,25 @@ def test_a_large_cloud_with_duplicates_grids_as_with_qhull():
     np.testing.assert_allclose(ours.grid.depth, qhull.grid.depth, rtol=0, atol=1e-12)
     with pytest.raises(InputError, match=r"must number the 5048 vertices once, got shape \(10,\)"):
         dataclasses.replace(surface, vertex_order=surface.vertex_order[:10])
+
+
+@pytest.mark.parametrize("how", ["repeats", "out of range"])
+def test_a_vertex_order_that_is_no_permutation_is_an_error_not_a_crash(how):
+    """The gridding indexes with Surface.vertex_order unchecked; one of the right shape that
+    repeats a vertex, or names one past the end, crashed fit_nurbs (segmentation fault)."""
+    import dataclasses
+
+    from replication.surfaces import adt
+
+    points = np.random.default_rng(3).random((5000, 3))
+    surface = adt(points)
+    order = np.array(surface.vertex_order)
+    if how == "repeats":
+        order[1] = order[0]
+        match = r"permutation of 0..4999: it repeats a vertex"
+    else:
+        order[0] = 10**9
+        match = r"permutation of 0..4999, got values 0..1000000000"
+    bad = dataclasses.replace(surface, vertex_order=order)
+    with pytest.raises(InputError, match=match):
+        fit_nurbs(points, evaluator="fast", tessellation=None, triangulation=bad)

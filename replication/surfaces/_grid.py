@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from replication._aot import kernel
+from replication.errors import InputError
 from replication.surfaces._threads import frozen
 
 __all__ = ["raster", "relabel"]
@@ -60,16 +61,23 @@ def relabel(points: np.ndarray, axes: np.ndarray, triangles: np.ndarray, order: 
     points, axes = frozen(points, np.float64), frozen(axes, np.int64)
     triangles, order = frozen(triangles, np.int32), frozen(order, np.int32)
     m, count = order.shape[0], triangles.shape[0]
-    position = np.empty(points.shape[0], dtype=np.int32)
+    n = points.shape[0]
+    # the kernels index with ``order`` unchecked: it must number every point once (1 ms at 1e6)
+    if order.shape != (n,):
+        raise InputError(f"the vertex order must be a permutation of 0..{n - 1}, got shape {order.shape}")
+    if n and (order.min() < 0 or order.max() >= n):
+        raise InputError(
+            f"the vertex order must be a permutation of 0..{n - 1}, got values {order.min()}..{order.max()}"
+        )
+    position = np.full(n, -1, dtype=np.int32)
     xy = np.empty((m, 2))
     values = np.empty(m)
     tri = np.empty((count, 3), dtype=np.int32)
     if count < _PIECES_MIN:
         bounds = np.empty((1, 4))
         kernel("gather")(points, axes, order, 0, m, position, xy, values, bounds[0])
-        kernel("renumber")(triangles, position, 0, count, tri)
     else:
-        from replication.surfaces._raster import _gather, _renumber
+        from replication.surfaces._raster import _gather
         from replication.surfaces._threads import run
 
         cut = [m * r // _RUNS for r in range(_RUNS + 1)]
@@ -78,6 +86,14 @@ def relabel(points: np.ndarray, axes: np.ndarray, triangles: np.ndarray, order: 
             (lambda r=r: _gather(points, axes, order, cut[r], cut[r + 1], position, xy, values, bounds[r]))
             for r in range(_RUNS)
         ])  # fmt: skip
+    if position.min() < 0:  # n entries in range, yet a point was never numbered: one came twice
+        raise InputError(f"the vertex order must be a permutation of 0..{n - 1}: it repeats a vertex")
+    if count < _PIECES_MIN:
+        kernel("renumber")(triangles, position, 0, count, tri)
+    else:
+        from replication.surfaces._raster import _renumber
+        from replication.surfaces._threads import run
+
         cut = [count * r // _RUNS for r in range(_RUNS + 1)]
         run([(lambda r=r: _renumber(triangles, position, cut[r], cut[r + 1], tri)) for r in range(_RUNS)])
     lo, hi = bounds.min(axis=0), bounds.max(axis=0)

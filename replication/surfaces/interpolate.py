@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from replication._aot import kernel
+from replication.errors import InputError
 from replication.surfaces._threads import frozen
 
 __all__ = ["triangle_neighbors", "locate", "interpolate_linear", "nearest_vertices", "fill_nearest"]
@@ -53,6 +54,30 @@ def triangle_neighbors(triangles: np.ndarray) -> np.ndarray:
 
 def _int32(a: np.ndarray) -> np.ndarray:
     return frozen(a, np.int32)
+
+
+def _check_mesh(xy: np.ndarray, triangles: np.ndarray, neighbors: np.ndarray | None = None) -> None:
+    """The kernels index with these arrays unchecked: their shapes and index ranges, or an
+    :class:`~replication.errors.InputError` naming the bad one (not a crash)."""
+    if xy.ndim != 2 or xy.shape[1] != 2:
+        raise InputError(f"vertex positions must have shape (n, 2), got {xy.shape}")
+    if triangles.ndim != 2 or triangles.shape[1] != 3:
+        raise InputError(f"triangles must have shape (m, 3), got {triangles.shape}")
+    n, m = xy.shape[0], triangles.shape[0]
+    if m and (triangles.min() < 0 or triangles.max() >= n):
+        raise InputError(
+            f"triangle vertex indices must lie in 0..{n - 1}, got {triangles.min()}..{triangles.max()}"
+        )
+    if neighbors is not None:
+        _check_neighbors(triangles, neighbors)
+
+
+def _check_neighbors(triangles: np.ndarray, neighbors: np.ndarray) -> None:
+    m = triangles.shape[0]
+    if neighbors.shape != triangles.shape:
+        raise InputError(f"neighbors must have the triangles' shape {triangles.shape}, got {neighbors.shape}")
+    if m and neighbors.max() >= m:
+        raise InputError(f"neighbour triangles must lie in 0..{m - 1} or be negative, got {neighbors.max()}")
 
 
 def locate(
@@ -85,10 +110,15 @@ def locate(
 def _walk(uv, triangles, queries, neighbors, convex):
     triangles = _int32(triangles)
     queries = frozen(np.asarray(queries, dtype=np.float64).reshape(-1, 2))
-    nbr = _int32(triangle_neighbors(triangles) if neighbors is None else neighbors)
+    xy = frozen(uv, np.float64)
+    _check_mesh(xy, triangles)
+    if neighbors is None:
+        nbr = _int32(triangle_neighbors(triangles))
+    else:
+        nbr = _int32(neighbors)
+        _check_neighbors(triangles, nbr)
     found = np.empty(queries.shape[0], dtype=np.int32)
     left = np.empty(queries.shape[0], dtype=np.int32)
-    xy = frozen(uv, np.float64)
     kernel("locate")(xy, triangles, nbr, queries, not convex, found, left)
     return found, left, triangles, nbr, queries, xy
 
@@ -108,14 +138,23 @@ def fill_nearest(
     queries = frozen(np.asarray(queries, dtype=np.float64).reshape(-1, 2))
     xy = frozen(uv, np.float64)
     triangles, neighbors = _int32(triangles), _int32(neighbors)
+    _check_mesh(xy, triangles, neighbors)
+    ids = _int32(np.arange(xy.shape[0])) if ids is None else _int32(ids)
+    if ids.shape != (xy.shape[0],):
+        raise InputError(f"ids must hold one number per vertex ({xy.shape[0]}), got shape {ids.shape}")
+    return _fill_nearest(xy, triangles, neighbors, queries, _int32(start), ids)
+
+
+def _fill_nearest(xy, triangles, neighbors, queries, start, ids):
+    """:func:`fill_nearest` without the checks of the mesh (the NURBS gridding's own arrays)."""
+    xy, queries = frozen(xy, np.float64), frozen(queries, np.float64)
+    triangles, neighbors, start, ids = _int32(triangles), _int32(neighbors), _int32(start), _int32(ids)
     left = np.empty(queries.shape[0], dtype=np.int32)
-    start = _int32(start)
     _check_starts(start, queries.shape[0], triangles.shape[0])
     kernel("exits")(xy, triangles, neighbors, queries, start, left)
     if np.any(left < 0):
         raise ValueError("fill_nearest: a query lies inside the triangulation")
     out = np.empty(queries.shape[0], dtype=np.int32)
-    ids = _int32(np.arange(xy.shape[0])) if ids is None else _int32(ids)
     kernel("nearest")(xy, triangles, neighbors, queries, _int32(left), ids, out)
     return out
 
@@ -129,9 +168,10 @@ def nearest_vertices(
     out = np.empty(queries.shape[0], dtype=np.int32)
     xy = frozen(uv, np.float64)
     ids = _int32(np.arange(xy.shape[0]))
-    triangles, start = _int32(triangles), _int32(start)
+    triangles, start, neighbors = _int32(triangles), _int32(start), _int32(neighbors)
+    _check_mesh(xy, triangles, neighbors)
     _check_starts(start, queries.shape[0], triangles.shape[0])
-    kernel("nearest")(xy, triangles, _int32(neighbors), queries, start, ids, out)
+    kernel("nearest")(xy, triangles, neighbors, queries, start, ids, out)
     return out
 
 
@@ -168,6 +208,8 @@ def interpolate_linear(
     """
     found, left, triangles, nbr, queries, xy = _walk(uv, triangles, queries, neighbors, convex)
     values = frozen(values, np.float64)
+    if values.shape != (xy.shape[0],):
+        raise InputError(f"values must hold one number per vertex ({xy.shape[0]}), got shape {values.shape}")
     out = np.empty(queries.shape[0])
     kernel("barycentric")(xy, triangles, found, queries, values, out)
     if nearest_outside:

@@ -169,7 +169,7 @@ def grid_depths(surface: Surface, shape: tuple[int, int]) -> Grid:
     greedy walk on the Delaunay triangulation (no k-d tree is built).
     """
     from replication.surfaces._grid import raster, relabel
-    from replication.surfaces.interpolate import fill_nearest
+    from replication.surfaces.interpolate import _fill_nearest
 
     order = surface.vertex_order
     if order is None:
@@ -184,7 +184,7 @@ def grid_depths(surface: Surface, shape: tuple[int, int]) -> Grid:
     if rows.size:
         start = _start_triangles(owner, rows, cols)
         queries = np.column_stack([u[rows], v[cols]])
-        nearest = fill_nearest(xy, triangles, surface.neighbors, queries, start, ids=order)
+        nearest = _fill_nearest(xy, triangles, surface.neighbors, queries, start, order)
         values[rows, cols] = depth[nearest]
     return Grid(u=u, v=v, depth=values, filled=outside)
 
