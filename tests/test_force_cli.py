@@ -88,6 +88,8 @@ def test_domain_options(capsys, tmp_path):
         (["--diameter", "0"], "diameter"),
         (["--velocity", "-4"], "velocity"),
         (["--domain", "36", "0", "13"], "domain"),
+        (["--diameter", "1e-300"], r"diameter must lie in"),  # was: unexpected ZeroDivisionError
+        (["--resolution", "100000"], r"resolution must be at most 256"),  # was: out of memory
     ],
 )
 def test_bad_options(capsys, bucket_csv, argv, match):

@@ -253,6 +253,11 @@ def test_result_is_frozen_and_reports_si_numbers():
         ({"center": (0.018, 0.002)}, "y = 0"),
         ({"domain": (0.036, 0.0, 0.013)}, "domain"),
         ({"full_jet": "yes"}, "full_jet"),
+        # extremes that raised ZeroDivisionError and OverflowError in the streamlets
+        ({"diameter": 1e-300}, r"diameter must lie in \[1e-90, 1e\+90\] m .* got diameter=1e-300"),
+        ({"diameter": 1e300, "domain": None}, r"got diameter=1e\+300"),
+        ({"velocity": 1e160}, r"momentum flux .* leaves float64's range"),
+        ({"density": 1e-300, "velocity": 1e-10}, r"momentum flux .* leaves float64's range"),
     ],
 )
 def test_bad_config(kwargs, match):
@@ -299,3 +304,5 @@ def test_surface_must_suit_the_jet():
         surface_force(adt(random_cloud(20, rng=1), depth="x"))
     with pytest.raises(InputError, match="resolution"):
         jet_force(points, triangles, UNBOUNDED_FULL, resolution=0)
+    with pytest.raises(InputError, match=r"resolution must be at most 256 .* got resolution=257"):
+        jet_force(points, triangles, UNBOUNDED_FULL, resolution=257)

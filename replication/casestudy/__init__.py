@@ -12,6 +12,7 @@ from replication._lazy import attach
 
 _EXPORTS = {
     "DEFAULT_RESOLUTION": "replication.casestudy.jet",
+    "MAX_RESOLUTION": "replication.casestudy.jet",
     "JetConfig": "replication.casestudy.jet",
     "JetForce": "replication.casestudy.jet",
     "jet_force": "replication.casestudy.jet",
@@ -26,6 +27,7 @@ _EXPORTS = {
 
 __all__ = [
     "DEFAULT_RESOLUTION",
+    "MAX_RESOLUTION",
     "JetConfig",
     "JetForce",
     "PAPER_SPH_FORCES",
@@ -43,6 +45,7 @@ __getattr__, __dir__ = attach(__name__, _EXPORTS)
 if TYPE_CHECKING:  # what the names are, for type checkers and editors
     from replication.casestudy.jet import (
         DEFAULT_RESOLUTION,
+        MAX_RESOLUTION,
         JetConfig,
         JetForce,
         jet_force,

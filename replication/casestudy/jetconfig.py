@@ -14,7 +14,10 @@ import numpy as np
 
 from replication.errors import InputError
 
-__all__ = ["JetConfig"]
+__all__ = ["DIAMETER_RANGE", "JetConfig"]
+
+#: Jet diameters (m) the model accepts: its cube (a streamlet's centroid) must stay a normal float64.
+DIAMETER_RANGE = (1e-90, 1e90)
 
 
 @dataclass(frozen=True)
@@ -60,6 +63,20 @@ class JetConfig:
             if not (math.isfinite(value) and value > 0):
                 raise InputError(f"jet {name} must be positive and finite, got {name}={value!r}")
             object.__setattr__(self, name, float(value))
+        low, high = DIAMETER_RANGE
+        if not low <= self.diameter <= high:  # the streamlets' centroids take its cube
+            raise InputError(
+                f"jet diameter must lie in [{low:g}, {high:g}] m (SI units: the paper's jet is 0.018 m), "
+                f"got diameter={self.diameter!r}"
+            )
+        speed_width = self.velocity * self.diameter
+        flux = self.density * speed_width * speed_width  # float ** raises OverflowError; * gives inf
+        if not (math.isfinite(flux) and flux >= np.finfo(np.float64).tiny):
+            raise InputError(
+                f"the jet's momentum flux rho V^2 d^2 = {flux:.3g} N leaves float64's range (diameter "
+                f"{self.diameter!r} m, velocity {self.velocity!r} m/s, density {self.density!r} kg/m^3): "
+                "use SI units"
+            )
         center = _floats(self.center, 2, "jet center (x, y)")
         object.__setattr__(self, "center", center)
         if not isinstance(self.full_jet, (bool, np.bool_)):

@@ -137,7 +137,7 @@ def _cmd_force(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``force`` subcommand."""
-    from replication.casestudy import DEFAULT_RESOLUTION
+    from replication.casestudy import DEFAULT_RESOLUTION, MAX_RESOLUTION
 
     p = sub.add_parser(
         "force",
@@ -177,7 +177,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=positive_int,
         default=DEFAULT_RESOLUTION,
         metavar="N",
-        help=f"streamlet rings across the jet radius, 4N spreading directions (default {DEFAULT_RESOLUTION})",
+        help=(
+            f"streamlet rings across the jet radius, 4N spreading directions (default {DEFAULT_RESOLUTION}, "
+            f"at most {MAX_RESOLUTION}: the work grows as N^3)"
+        ),
     )
     p.add_argument(
         "--domain",
