@@ -37,7 +37,12 @@ def test_net_follows_the_aspect_ratio():
     assert (s.m_u, s.m_v) == (10, 20)
 
 
-@pytest.mark.parametrize(("n", "aspect"), [(101, 1.2), (202, 1.0), (201, 1.0), (97, 3.0)])
+@pytest.mark.parametrize(
+    ("n", "aspect"),
+    # extreme aspects: 100 points 1e8 times wider than deep once got a 101649 x 3 net (a 73 MB file)
+    [(101, 1.2), (202, 1.0), (201, 1.0), (97, 3.0)]
+    + [(100, 1e8), (100, 1e-8), (101, 1e12), (9, 1e300), (10, 1.7e308)],
+)
 def test_fallback_net_has_at_least_n_nodes(n, aspect):
     s = control_net_shape(n, aspect)
     assert s.rule == "fallback" and s.size >= n and min(s.m_u, s.m_v) >= 3

@@ -121,7 +121,8 @@ def control_net_shape(n: int, aspect: float, degree: int = 2, *, max_ratio: floa
             best = (distance, a, b)
     if best is not None:
         return NetShape(best[1], best[2], "exact")
-    m_u = max(low, round(math.sqrt(n * aspect)))
+    # a very wide cloud: m_v stops at ``low`` and m_u at n / low (n * aspect may even overflow)
+    m_u = max(low, min(math.ceil(n / low), round(min(math.sqrt(n * aspect), n))))
     m_v = max(low, math.ceil(n / m_u))
     return NetShape(m_u, m_v, "fallback")
 
