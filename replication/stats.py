@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike
 
 from replication.errors import InputError
 
-__all__ = ["TestResult", "PairedStatistics", "paired_statistics"]
+__all__ = ["ROUNDING_FRACTION", "TestResult", "PairedStatistics", "paired_statistics"]
 
 
 @dataclass(frozen=True)
@@ -45,6 +45,11 @@ class TestResult:
     statistic: float
     p_value: float
     similar: bool
+
+
+#: Deviations of at most this fraction of the depth range are float64 rounding (depths carry
+#: about 16 significant digits; evaluation and interpolation lose a few).
+ROUNDING_FRACTION = 1e-12
 
 
 @dataclass(frozen=True)
@@ -74,6 +79,14 @@ class PairedStatistics:
     equivalent: bool
 
     @property
+    def rounding_only(self) -> bool:
+        """True when every deviation is at most :data:`ROUNDING_FRACTION` of the depth range:
+        float64 rounding, so the tests compare rounding noise and their verdicts say nothing
+        about the surfaces (a plane on a lattice: ADT and NURBS agree to 7e-16, yet the t-test
+        rejects at p = 0.00025)."""
+        return self.max_abs <= ROUNDING_FRACTION * self.depth_range
+
+    @property
     def paper_verdict(self) -> str:
         """'similar' when both of the paper's tests fail to reject, else 'different'."""
         return "similar" if self.t_test.similar and self.wilcoxon.similar else "different"
@@ -92,6 +105,7 @@ class PairedStatistics:
 
         d = clean(asdict(self))
         d["paper_verdict"] = self.paper_verdict
+        d["rounding_only"] = self.rounding_only
         return d
 
 

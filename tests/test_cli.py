@@ -240,6 +240,22 @@ def test_compare_human(capsys, cloud_file):
         "Cohen",
     ):
         assert phrase in out
+    assert "rounding noise" not in out  # a random cloud: real deviations
+
+
+def test_compare_says_when_the_tests_compare_rounding_noise(capsys, tmp_path):
+    """A plane on a lattice: ADT and NURBS agree to 7e-16, yet the t-test rejects (p = 0.00025);
+    the output says that the verdict is about rounding, in words and in the JSON."""
+    g = np.stack(np.meshgrid(np.arange(10.0), np.arange(10.0), indexing="ij"), -1).reshape(-1, 2)
+    save_cloud(np.column_stack([g, 0.1 * (g[:, 0] + g[:, 1])]), tmp_path / "plane.csv")
+    code, out, _ = run(capsys, "compare", str(tmp_path / "plane.csv"))
+    assert code == 0 and "paper's verdict: different" in out
+    assert "float64 rounding next to the depth range 1.8: the tests compare rounding noise" in out
+    code, out, _ = run(capsys, "compare", str(tmp_path / "plane.csv"), "--json")
+    r = json.loads(out)
+    assert all(
+        r["pairings"][name]["statistics"]["rounding_only"] for name in ("nurbs-samples", "cloud-points")
+    )
 
 
 def test_compare_json_has_everything(capsys, cloud_file):
@@ -253,6 +269,7 @@ def test_compare_json_has_everything(capsys, cloud_file):
         assert p["pairs"] == st["n"] and p["candidates"] >= p["pairs"]
         assert 0 <= st["t_test"]["p_value"] <= 1 and 0 <= st["wilcoxon"]["p_value"] <= 1
         assert isinstance(st["equivalent"], bool) and st["paper_verdict"] in ("similar", "different")
+        assert st["rounding_only"] is False
         assert st["margin"] == pytest.approx(0.1 * r["depth_range"])
         assert len(st["ci95"]) == 2
 

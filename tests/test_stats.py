@@ -181,3 +181,12 @@ def test_wilcoxon_permutation_path_known_case():
     # |d| without the zero ranks 1 x4 -> 2.5, 2 x3 -> 6, 3 -> 8: r- = 6 + 2.5 = 8.5, r+ = 27.5
     assert ours.wilcoxon.statistic == 8.5
     assert ours.wilcoxon.p_value == 2 * 62 / 512  # 62 of the 2**9 sign flips give r+ <= 8.5
+
+
+def test_rounding_only_marks_deviations_at_float64_rounding():
+    rng = np.random.default_rng(0)
+    a = rng.random(50)
+    noise = paired_statistics(a, a + rng.choice([-1, 0, 1], 50) * 2.0**-52, depth_range=1.0)
+    real = paired_statistics(a, a + rng.normal(0, 1e-6, 50), depth_range=1.0)
+    assert noise.rounding_only and noise.as_dict()["rounding_only"] is True
+    assert not real.rounding_only and real.as_dict()["rounding_only"] is False

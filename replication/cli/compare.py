@@ -35,12 +35,19 @@ def _format_stats(name: str, pairs: Any, st: Any) -> list[str]:
     if st is None:
         return [head, "  too few pairs for the tests (need 3)"]
     lo, hi = st.ci95
+    rounding = []
+    if st.rounding_only:
+        rounding = [
+            f"  note               every deviation is at most {st.max_abs:.2g}, float64 rounding next to the "
+            f"depth range {st.depth_range:.4g}: the tests compare rounding noise; the surfaces agree"
+        ]
     return [
         head,
         f"  paired t-test      t = {st.t_test.statistic:.4g}, p = {st.t_test.p_value:.4g}"
         f"  -> paper's verdict: {'similar' if st.t_test.similar else 'different'}",
         f"  Wilcoxon test      W = {st.wilcoxon.statistic:.4g}, p = {st.wilcoxon.p_value:.4g}"
         f"  -> paper's verdict: {'similar' if st.wilcoxon.similar else 'different'}",
+        *rounding,
         f"  mean difference    {st.mean_difference:.4g} (95% CI {lo:.4g} to {hi:.4g}), "
         f"Cohen's d_z {st.cohens_dz:.3g}",
         f"  deviation          RMS {st.rms:.4g} ({st.rms_percent:.1f}% of depth range), "
