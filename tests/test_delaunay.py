@@ -262,6 +262,15 @@ def test_sweep_failure_falls_back_to_qhull(monkeypatch):
     triangles, used = delaunay_2d(uv)
     assert used == "scipy"
     assert_valid_delaunay(uv, triangles)
+    with pytest.raises(DegenerateInputError, match=r"sweep-hull .* the 'auto' backend falls back to Qhull"):
+        delaunay_2d(uv, backend="sweephull")  # asked for by name: an error, not Qhull's result
+    monkeypatch.setattr(
+        delaunay, "_scipy", lambda uv: (_ for _ in ()).throw(DegenerateInputError("Qhull: no"))
+    )
+    with pytest.raises(
+        DegenerateInputError, match=r"^rounding defeated the sweep-hull triangulator, then: Qhull: no"
+    ):
+        delaunay_2d(uv)
 
 
 def test_a_failed_block_is_retried_as_one_block(monkeypatch):

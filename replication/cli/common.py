@@ -134,7 +134,10 @@ def add_frame_options(p: argparse.ArgumentParser) -> None:
         "or raise an error (default: mean)",
     )
     p.add_argument(
-        "--backend", choices=BACKENDS, default="auto", help="2-D Delaunay backend (default: auto = sweephull)"
+        "--backend",
+        choices=BACKENDS,
+        default="auto",
+        help="2-D Delaunay backend (default: auto = sweephull, Qhull if rounding defeats it)",
     )
 
 

@@ -157,7 +157,8 @@ def planar_delaunay(points: np.ndarray, axes: tuple[int, int] = (0, 1), *, backe
     axes : (int, int)
         The columns that are (u, v).
     backend : {"auto", "sweephull", "scipy"}
-        ``"auto"`` is ``"sweephull"``, with Qhull as the fallback when rounding defeats it.
+        ``"auto"`` is ``"sweephull"``, with Qhull as the fallback when rounding defeats it;
+        ``"sweephull"`` is the sweep alone (its failure is an error), ``"scipy"`` Qhull alone.
 
     Returns
     -------
@@ -185,7 +186,17 @@ def planar_delaunay(points: np.ndarray, axes: tuple[int, int] = (0, 1), *, backe
             return result, "sweephull"
         if result.status == STATUS_COLLINEAR:
             raise _too_few_or_collinear(points, axes)
+        if backend == "sweephull":  # asked for the sweep alone: no silent change of backend
+            raise DegenerateInputError(
+                f"the sweep-hull triangulator could not triangulate the {points.shape[0]} projected "
+                "points: rounding of its sort keys put a point inside the hull; the 'auto' backend falls "
+                "back to Qhull"
+            )
         # rounding defeated the sweep; Qhull is slower but handles it
+        try:
+            return _qhull(*_in_range(points, axes)), "scipy"
+        except DegenerateInputError as exc:
+            raise DegenerateInputError(f"rounding defeated the sweep-hull triangulator, then: {exc}") from exc
     return _qhull(*_in_range(points, axes)), "scipy"
 
 
