@@ -77,8 +77,8 @@ def _scipy(uv: np.ndarray) -> np.ndarray:
 def _unused_points_error(unused: np.ndarray, backend: str) -> DegenerateInputError:
     return DegenerateInputError(
         f"{unused.size} distinct projected point(s) could not be triangulated by {backend} "
-        f"(points {shown(unused)}): they lie within floating-point precision of another point; "
-        "round the coordinates or remove them"
+        f"(points {shown(unused)}): within its rounding they coincide with another point or lie on a "
+        "line or circle through others; round the coordinates or remove them"
     )
 
 
