@@ -262,6 +262,12 @@ def test_underflowing_coordinates_are_named(capsys, tmp_path):
     code, _, err = run(capsys, "adt", tmp_path / "thin.npy", "--depth", "z")
     assert code == 1 and one_line(err, "adt") and "coordinates underflow" in err and "collinear" not in err
     assert "next to the largest coordinate" in err
+    subnormal = np.array(
+        [[0.0, 0.0, 1.0], [1e-310, 1e-310, 2.0], [2e-310, 2e-310, 3.0]]
+    )  # was: OverflowError
+    np.save(tmp_path / "subnormal.npy", subnormal)
+    code, _, err = run(capsys, "adt", tmp_path / "subnormal.npy", "--depth", "z")
+    assert code == 1 and one_line(err, "adt") and "collinear" in err and "unexpected" not in err
     np.save(tmp_path / "line.npy", np.column_stack([np.arange(4.0), np.zeros(4), np.ones(4)]))
     code, _, err = run(capsys, "adt", tmp_path / "line.npy", "--depth", "z")
     assert code == 1 and one_line(err, "adt") and "collinear" in err and "underflow" not in err

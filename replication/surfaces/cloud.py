@@ -81,9 +81,10 @@ def lattice_count(lo: float, hi: float, step: float) -> int:
     with np.errstate(over="ignore"):  # a step of 5e-324: an infinite count, named below
         last = np.floor((hi - lo) / step * (1 + 1e-12) + 1e-9)
     if not last < MAX_LATTICE_VALUES:
+        count = f"{last + 1:.3g}" if np.isfinite(last) else "more than 1.8e308"
         raise InputError(
             f"discretisation step {step:g} is too fine for the range [{lo:g}, {hi:g}]: "
-            f"{last:.3g} lattice values, at most 2^53 per axis"
+            f"{count} lattice values, at most 2^53 per axis"
         )
     return int(last) + 1
 
@@ -188,8 +189,8 @@ def underflow(uv: np.ndarray, names: tuple[str, str] = ("u", "v")) -> str | None
     top = float(np.abs(uv).max()) if uv.size else 0.0
     if top == 0.0 or np.any(extent == 0.0):
         return None
-    scale = 2.0 ** -math.frexp(top)[1]
-    if (extent[0] * scale) * (extent[1] * scale) >= tiny:
+    scaled = np.ldexp(extent, -math.frexp(top)[1])  # 2.0 ** 1075 would overflow: ldexp does not
+    if scaled[0] * scaled[1] >= tiny:
         return None
     return (
         f"the coordinates underflow: the projected points span only {extent[0]:.3g} x {extent[1]:.3g} in "
