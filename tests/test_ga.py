@@ -140,6 +140,9 @@ def test_genome_round_trip_and_errors():
         ({"generations": 0}, "generations"),
         ({"box": (0, 36, 0, 30, 13, 0)}, "min < max"),
         ({"duplicates": "raise"}, "merge"),
+        # the case study scores its reference shapes at 4x: 100 failed only there, after the runs
+        ({"resolution": 65}, r"at most 64 .* got resolution=65"),
+        ({"step": 1e-300}, r"too fine for the range"),
     ],
 )
 def test_config_validation(kwargs, match):

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from replication.casestudy.jet import DEFAULT_RESOLUTION, JetConfig
+from replication.casestudy.jet import DEFAULT_RESOLUTION, MAX_RESOLUTION, JetConfig
 from replication.casestudy.units import to_millimetres
 from replication.errors import InputError
 from replication.surfaces.cloud import lattice_count
@@ -77,6 +77,12 @@ class GAConfig:
             minimum = 0 if name == "elites" else 1
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
                 raise InputError(f"GA {name} must be an integer >= {minimum}, got {value!r}")
+        if self.resolution > MAX_RESOLUTION // 4:
+            raise InputError(
+                f"GA resolution must be at most {MAX_RESOLUTION // 4} (the case study also scores its "
+                f"reference shapes at 4x, and the jet model takes at most {MAX_RESOLUTION}), "
+                f"got resolution={self.resolution}"
+            )
         if self.population < 4:
             raise InputError(
                 f"GA population must be at least 4 (two seeds and a pair), got {self.population}"
@@ -94,6 +100,8 @@ class GAConfig:
             raise InputError(
                 f"box must be (xmin, xmax, ymin, ymax, zmin, zmax) with min < max, got {self.box}"
             )
+        for k in range(3):  # the genes index each axis's lattice: a step too fine for it is named here
+            lattice_count(self.box[2 * k], self.box[2 * k + 1], self.step)
         if self.duplicates not in ("mean", "min", "max", "first"):
             raise InputError(
                 f"duplicate policy must merge ('mean', 'min', 'max', 'first'), got {self.duplicates!r}"
