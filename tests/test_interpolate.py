@@ -137,6 +137,9 @@ def test_the_kernels_index_arrays_are_checked_not_read_out_of_bounds():
         (lambda: nearest_vertices(uv, [[0, 1, 3]], alone, far, [0]), r"must lie in 0..2, got 0..3"),
         (lambda: fill_nearest(uv, good, [[5, -1, -1]], far, [0]), r"must lie in 0..0 or be negative, got 5"),
         (lambda: fill_nearest(uv, good, alone, far, [0], ids=[0, 1]), r"ids must hold one number per vertex"),
+        # int64 past int32 wrapped into range in the cast (2**32 + 1 became 1) before the check
+        (lambda: interpolate_linear(uv, np.array([[0, 1, 2**32 + 1]]), np.zeros(3), q), r"fit in int32, got"),
+        (lambda: nearest_vertices(uv, good, alone, far, np.array([2**32])), r"int32, got values 4294967296"),
     ]  # fmt: skip
     for call, match in cases:
         with pytest.raises(InputError, match=match):

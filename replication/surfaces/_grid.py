@@ -59,7 +59,7 @@ def relabel(points: np.ndarray, axes: np.ndarray, triangles: np.ndarray, order: 
     time of a grid of a million nodes. Runs in fixed pieces on the thread pool.
     """
     points, axes = frozen(points, np.float64), frozen(axes, np.int64)
-    triangles, order = frozen(triangles, np.int32), frozen(order, np.int32)
+    triangles, order = frozen(triangles, np.int32), np.asarray(order)
     m, count = order.shape[0], triangles.shape[0]
     n = points.shape[0]
     # the kernels index with ``order`` unchecked: it must number every point once (1 ms at 1e6)
@@ -69,6 +69,7 @@ def relabel(points: np.ndarray, axes: np.ndarray, triangles: np.ndarray, order: 
         raise InputError(
             f"the vertex order must be a permutation of 0..{n - 1}, got values {order.min()}..{order.max()}"
         )
+    order = frozen(order, np.int32)  # after the range check: a wider integer could wrap into range
     position = np.full(n, -1, dtype=np.int32)
     xy = np.empty((m, 2))
     values = np.empty(m)
@@ -86,7 +87,7 @@ def relabel(points: np.ndarray, axes: np.ndarray, triangles: np.ndarray, order: 
             (lambda r=r: _gather(points, axes, order, cut[r], cut[r + 1], position, xy, values, bounds[r]))
             for r in range(_RUNS)
         ])  # fmt: skip
-    if position.min() < 0:  # n entries in range, yet a point was never numbered: one came twice
+    if n and position.min() < 0:  # n entries in range, yet a point was never numbered: one came twice
         raise InputError(f"the vertex order must be a permutation of 0..{n - 1}: it repeats a vertex")
     if count < _PIECES_MIN:
         kernel("renumber")(triangles, position, 0, count, tri)

@@ -53,6 +53,12 @@ def triangle_neighbors(triangles: np.ndarray) -> np.ndarray:
 
 
 def _int32(a: np.ndarray) -> np.ndarray:
+    """Indices as aligned, read-only int32; wider integers must fit (a cast would wrap them)."""
+    a = np.asarray(a)
+    if a.dtype != np.int32 and a.dtype.kind in "iu" and a.size:
+        low, high = int(a.min()), int(a.max())
+        if low < -(2**31) or high >= 2**31:
+            raise InputError(f"indices must fit in int32, got values {low}..{high}")
     return frozen(a, np.int32)
 
 
