@@ -314,7 +314,7 @@ def test_a_large_cloud_with_duplicates_grids_as_with_qhull():
     assert np.array_equal(np.sort(surface.vertex_order), np.arange(surface.n_vertices))
     np.testing.assert_array_equal(ours.grid.filled, qhull.grid.filled)
     np.testing.assert_allclose(ours.grid.depth, qhull.grid.depth, rtol=0, atol=1e-12)
-    with pytest.raises(InputError, match=r"must number the 5048 vertices once, got shape \(10,\)"):
+    with pytest.raises(InputError, match=r"one entry per vertex \(5048\), got shape \(10,\)"):
         dataclasses.replace(surface, vertex_order=surface.vertex_order[:10])
 
 

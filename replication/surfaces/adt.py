@@ -187,7 +187,7 @@ class Surface:
             object.__setattr__(self, "vertex_order", _readonly(self.vertex_order))
             if self.vertex_order.shape != (self.points.shape[0],):  # kernels index with it unchecked
                 raise InputError(
-                    f"vertex_order must number the {self.points.shape[0]} vertices once, "
+                    f"vertex_order must have one entry per vertex ({self.points.shape[0]}), "
                     f"got shape {self.vertex_order.shape}"
                 )
         object.__setattr__(self, "vertex_of_input", _readonly(self.vertex_of_input))

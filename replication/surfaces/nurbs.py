@@ -121,8 +121,9 @@ def control_net_shape(n: int, aspect: float, degree: int = 2, *, max_ratio: floa
             best = (distance, a, b)
     if best is not None:
         return NetShape(best[1], best[2], "exact")
-    # a very wide cloud: m_v stops at ``low`` and m_u at n / low (n * aspect may even overflow)
-    m_u = max(low, min(math.ceil(n / low), round(min(math.sqrt(n * aspect), n))))
+    m_u = max(low, round(min(math.sqrt(n * aspect), n)))  # n * aspect may overflow to inf
+    if math.ceil(n / m_u) < low:  # a very wide cloud: m_v stops at ``low``, so m_u stops at n / low
+        m_u = max(low, math.ceil(n / low))
     m_v = max(low, math.ceil(n / m_u))
     return NetShape(m_u, m_v, "fallback")
 
