@@ -77,14 +77,20 @@ class PairedStatistics:
     tost_p: float
     tost_ci: tuple[float, float]
     equivalent: bool
+    magnitude: float = 0.0  # the largest |depth| of either sample
+
+    @property
+    def rounding_scale(self) -> float:
+        """What rounding is measured against: the larger of the depth range and the depths."""
+        return max(self.depth_range, self.magnitude)
 
     @property
     def rounding_only(self) -> bool:
-        """True when every deviation is at most :data:`ROUNDING_FRACTION` of the depth range:
-        float64 rounding, so the tests compare rounding noise and their verdicts say nothing
-        about the surfaces (a plane on a lattice: ADT and NURBS agree to 7e-16, yet the t-test
-        rejects at p = 0.00025)."""
-        return self.max_abs <= ROUNDING_FRACTION * self.depth_range
+        """True when every deviation is at most :data:`ROUNDING_FRACTION` of the depth range
+        or of the depths themselves, whichever is larger: float64 rounding, so the tests
+        compare rounding noise and their verdicts say nothing about the surfaces (a plane on a
+        lattice: ADT and NURBS agree to 7e-16, yet the t-test rejects at p = 0.00025)."""
+        return self.max_abs <= ROUNDING_FRACTION * self.rounding_scale
 
     @property
     def paper_verdict(self) -> str:
@@ -249,4 +255,5 @@ def paired_statistics(
         tost_p=tost_p,
         tost_ci=(mean - t_tost * sd / np.sqrt(n), mean + t_tost * sd / np.sqrt(n)),
         equivalent=bool(tost_p < alpha),
+        magnitude=float(max(np.max(np.abs(a)), np.max(np.abs(b)))),
     )

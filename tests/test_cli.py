@@ -250,7 +250,7 @@ def test_compare_says_when_the_tests_compare_rounding_noise(capsys, tmp_path):
     save_cloud(np.column_stack([g, 0.1 * (g[:, 0] + g[:, 1])]), tmp_path / "plane.csv")
     code, out, _ = run(capsys, "compare", str(tmp_path / "plane.csv"))
     assert code == 0 and "paper's verdict: different" in out
-    assert "float64 rounding next to the depth range 1.8: the tests compare rounding noise" in out
+    assert "float64 rounding next to depths of 1.8: the tests compare rounding noise" in out
     code, out, _ = run(capsys, "compare", str(tmp_path / "plane.csv"), "--json")
     r = json.loads(out)
     assert all(

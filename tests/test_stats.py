@@ -190,3 +190,6 @@ def test_rounding_only_marks_deviations_at_float64_rounding():
     real = paired_statistics(a, a + rng.normal(0, 1e-6, 50), depth_range=1.0)
     assert noise.rounding_only and noise.as_dict()["rounding_only"] is True
     assert not real.rounding_only and real.as_dict()["rounding_only"] is False
+    # depths far from zero round on their own scale: 2 ulp of 2e5 is 5.8e-11, a range of 1 notwithstanding
+    far = paired_statistics(a + 2e5, a + 2e5 + rng.choice([-1, 0, 1], 50) * 2.0**-35, depth_range=1.0)
+    assert far.rounding_only and far.rounding_scale == pytest.approx(2e5, rel=1e-5)

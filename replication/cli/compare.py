@@ -38,8 +38,8 @@ def _format_stats(name: str, pairs: Any, st: Any) -> list[str]:
     rounding = []
     if st.rounding_only:
         rounding = [
-            f"  note               every deviation is at most {st.max_abs:.2g}, float64 rounding next to the "
-            f"depth range {st.depth_range:.4g}: the tests compare rounding noise; the surfaces agree"
+            f"  note               every deviation is at most {st.max_abs:.2g}, float64 rounding next to "
+            f"depths of {st.rounding_scale:.4g}: the tests compare rounding noise; the surfaces agree"
         ]
     return [
         head,
