@@ -11,15 +11,15 @@ Two backends triangulate the distinct projected positions of a cloud:
 
 Both return counter-clockwise triangles with their neighbours and the convex hull. Neither
 drops a point silently: a point the backend could not use raises
-:class:`~replication.errors.DegenerateInputError` naming it (the sweep-hull backend first
-retries with Qhull).
+:class:`~replication.errors.DegenerateInputError` naming it. The ``"auto"`` backend (the
+default) is the sweep, retried with Qhull when rounding defeats it.
 
 **Range.** The exact predicates multiply four coordinates, so products overflow above about
-1e77 and underflow below about 1e-77: a cloud of kilometres given in nanometres, or of
-micrometres given in light years, would get wrong triangles. A cloud whose largest projected
-coordinate lies outside [2^-128, 2^128] is therefore scaled by a power of two, which is exact
-(the triangulation is that of the cloud as given) unless some coordinate would fall below
-float64's normal range; then it is an error, not a guess. Qhull, which is not exact, is given
+1e77 and underflow below about 1e-77, and clouds there got wrong triangles without an error.
+A cloud whose largest projected coordinate lies outside [2^-128, 2^128] is therefore scaled
+by a power of two, which is exact (the triangulation is that of the cloud as given) unless
+the scaling would round a coordinate (a tiny one next to huge ones, pushed below float64's
+normal range); then it is an error, not a guess. Qhull, which is not exact, is given
 coordinates centred on the middle of their bounding box, since it loses the digits an offset
 carries (map coordinates in metres, 1e6 from the origin, gave non-Delaunay triangles).
 """
@@ -122,7 +122,7 @@ def _qhull(points: np.ndarray, axes: tuple[int, int]):
 
 def _scaled(points: np.ndarray, axes: tuple[int, int], top: float) -> tuple[np.ndarray, tuple[int, int]]:
     """The (u, v) columns times the power of two that puts their largest absolute value
-    ``top`` in [0.5, 1): exact, or an error when a coordinate would leave float64's normal range."""
+    ``top`` in [0.5, 1): exact, or an error when the scaling would round a coordinate."""
     shift = -math.frexp(top)[1]
     uv = np.ldexp(points[:, list(axes)], shift)
     if shift < 0 and not np.array_equal(np.ldexp(uv, -shift), points[:, list(axes)]):
@@ -208,7 +208,8 @@ def delaunay_2d(uv: np.ndarray, *, backend: Backend = "auto") -> tuple[np.ndarra
     uv : ndarray of float64, shape (n, 2)
         Distinct, finite points.
     backend : {"auto", "sweephull", "scipy"}
-        Triangulation backend; ``"auto"`` is ``"sweephull"``.
+        Triangulation backend; ``"auto"`` is ``"sweephull"``, retried with Qhull when rounding
+        defeats it.
 
     Returns
     -------
