@@ -405,3 +405,18 @@ def test_qhull_is_delaunay_on_map_coordinates(seed):
     assert_valid_delaunay(uv, result.triangles, exact="compiled")
     sweep, _ = planar_delaunay(uv)
     assert _triangle_set(result.triangles) == _triangle_set(sweep.triangles)
+
+
+@pytest.mark.parametrize("n", [3000, 12000])
+def test_a_nearly_collinear_cloud_is_swept_from_a_round_seed(n):
+    """Points on a line to within rounding, and one apex: the empty-circle seed of nearest
+    neighbours was a sliver with its circumcentre 5e8 extents away, so the sort keys differed by
+    less than their rounding and the sweep failed (then Qhull, 33 s at 20,000 points, failed
+    too). The seed grown from an extreme point (the apex) is round, and the sweep exact."""
+    t = np.random.default_rng(3).random(n)
+    uv = np.vstack([np.column_stack([t, 0.1 * t + 0.3]), [[0.5, 0.9]]])
+    i0, i1, i2, cx, cy = _sweephull.seed_triangle(uv)
+    assert max(abs(cx - uv[i0, 0]), abs(cy - uv[i0, 1])) < 4.0  # not the sliver's 5e8
+    result, used = planar_delaunay(uv, backend="sweephull")
+    assert used == "sweephull"
+    assert_valid_delaunay(uv, result.triangles, exact="compiled")

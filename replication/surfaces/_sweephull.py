@@ -138,34 +138,10 @@ def legalize(stack, top, xy, tri, he, hull_tri):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def seed_triangle(xy):
-    """An empty-circle seed triangle of the points ``xy`` (n, 2) and its circumcentre.
-
-    Returns ``(i0, i1, i2, cx, cy)``, counter-clockwise; the indices are -1 when the points
-    are collinear (no triangle exists). Repeated positions are allowed (a point's duplicate
-    is never chosen as its neighbour).
-    """
+def _seed_from(xy, i0):
+    """The empty-circle seed triangle on the edge from point ``i0`` to its nearest neighbour:
+    ``(i0, i1, i2, cx, cy)``, counter-clockwise, or -1s when there is none."""
     n = xy.shape[0]
-    if n < 3:
-        return -1, -1, -1, 0.0, 0.0
-    lo_x = np.inf
-    hi_x = -np.inf
-    lo_y = np.inf
-    hi_y = -np.inf
-    for k in range(n):
-        lo_x = min(lo_x, xy[k, 0])
-        hi_x = max(hi_x, xy[k, 0])
-        lo_y = min(lo_y, xy[k, 1])
-        hi_y = max(hi_y, xy[k, 1])
-    cx = 0.5 * (lo_x + hi_x)
-    cy = 0.5 * (lo_y + hi_y)
-    i0 = 0
-    best = np.inf
-    for k in range(n):
-        d = (xy[k, 0] - cx) ** 2 + (xy[k, 1] - cy) ** 2
-        if d < best:
-            best = d
-            i0 = k
     x0 = xy[i0, 0]
     y0 = xy[i0, 1]
     i1 = -1
@@ -218,6 +194,73 @@ def seed_triangle(xy):
             return i0, i1, i2, ax + (ey * bl - dy * el) * f, ay + (dx * el - ex * bl) * f
         i0, i1 = i1, i0
     return -1, -1, -1, 0.0, 0.0
+
+
+#: A seed whose circumcentre lies farther than this many times the cloud's extent from the
+#: seed is replaced by a rounder one if there is one: the sweep sorts the points by their
+#: distance from that centre, and from very far away (a nearly collinear cloud's thin
+#: triangles, 1e9 extents off) the distances differ by less than their rounding, so points
+#: come in an order that puts some inside the hull and the sweep fails.
+_FAR_CENTRE = 4.0
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def seed_triangle(xy):
+    """An empty-circle seed triangle of the points ``xy`` (n, 2) and its circumcentre.
+
+    Returns ``(i0, i1, i2, cx, cy)``, counter-clockwise; the indices are -1 when the points
+    are collinear (no triangle exists). Repeated positions are allowed (a point's duplicate
+    is never chosen as its neighbour). The seed grows from the point nearest the middle of
+    the bounding box; when its circumcentre is far off (see ``_FAR_CENTRE``), from each of
+    the points extreme in u or v too, and the seed with the nearest circumcentre is taken.
+    """
+    n = xy.shape[0]
+    if n < 3:
+        return -1, -1, -1, 0.0, 0.0
+    lo_x = np.inf
+    hi_x = -np.inf
+    lo_y = np.inf
+    hi_y = -np.inf
+    extreme = np.zeros(4, dtype=np.int64)
+    for k in range(n):
+        if xy[k, 0] < lo_x:
+            lo_x = xy[k, 0]
+            extreme[0] = k
+        if xy[k, 0] > hi_x:
+            hi_x = xy[k, 0]
+            extreme[1] = k
+        if xy[k, 1] < lo_y:
+            lo_y = xy[k, 1]
+            extreme[2] = k
+        if xy[k, 1] > hi_y:
+            hi_y = xy[k, 1]
+            extreme[3] = k
+    cx = 0.5 * (lo_x + hi_x)
+    cy = 0.5 * (lo_y + hi_y)
+    i0 = 0
+    best = np.inf
+    for k in range(n):
+        d = (xy[k, 0] - cx) ** 2 + (xy[k, 1] - cy) ** 2
+        if d < best:
+            best = d
+            i0 = k
+    seed = _seed_from(xy, i0)
+    if seed[0] < 0:
+        return seed
+    extent = max(hi_x - lo_x, hi_y - lo_y)
+    far = (_FAR_CENTRE * extent) ** 2
+    radius = (seed[3] - xy[seed[0], 0]) ** 2 + (seed[4] - xy[seed[0], 1]) ** 2
+    if not radius > far:  # the usual case: a seed of nearest neighbours near the middle
+        return seed
+    for j in range(4):
+        other = _seed_from(xy, extreme[j])
+        if other[0] < 0:
+            continue
+        r = (other[3] - xy[other[0], 0]) ** 2 + (other[4] - xy[other[0], 1]) ** 2
+        if r < radius:
+            seed = other
+            radius = r
+    return seed
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
