@@ -217,26 +217,19 @@ def seed_triangle(xy):
     n = xy.shape[0]
     if n < 3:
         return -1, -1, -1, 0.0, 0.0
-    lo_x = np.inf
-    hi_x = -np.inf
-    lo_y = np.inf
-    hi_y = -np.inf
-    extreme = np.zeros(4, dtype=np.int64)
+    lo = np.full(2, np.inf)
+    hi = np.full(2, -np.inf)
+    extreme = np.zeros(4, dtype=np.int64)  # the first point of least u, greatest u, least v, greatest v
     for k in range(n):
-        if xy[k, 0] < lo_x:
-            lo_x = xy[k, 0]
-            extreme[0] = k
-        if xy[k, 0] > hi_x:
-            hi_x = xy[k, 0]
-            extreme[1] = k
-        if xy[k, 1] < lo_y:
-            lo_y = xy[k, 1]
-            extreme[2] = k
-        if xy[k, 1] > hi_y:
-            hi_y = xy[k, 1]
-            extreme[3] = k
-    cx = 0.5 * (lo_x + hi_x)
-    cy = 0.5 * (lo_y + hi_y)
+        for c in range(2):
+            if xy[k, c] < lo[c]:
+                lo[c] = xy[k, c]
+                extreme[2 * c] = k
+            if xy[k, c] > hi[c]:
+                hi[c] = xy[k, c]
+                extreme[2 * c + 1] = k
+    cx = 0.5 * (lo[0] + hi[0])
+    cy = 0.5 * (lo[1] + hi[1])
     i0 = 0
     best = np.inf
     for k in range(n):
@@ -247,7 +240,7 @@ def seed_triangle(xy):
     seed = _seed_from(xy, i0)
     if seed[0] < 0:
         return seed
-    extent = max(hi_x - lo_x, hi_y - lo_y)
+    extent = max(hi[0] - lo[0], hi[1] - lo[1])
     far = (_FAR_CENTRE * extent) ** 2
     radius = (seed[3] - xy[seed[0], 0]) ** 2 + (seed[4] - xy[seed[0], 1]) ** 2
     if not radius > far:  # the usual case: a seed of nearest neighbours near the middle
