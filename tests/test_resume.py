@@ -113,3 +113,24 @@ def test_hint_after_an_interrupted_reproduce_quick(capsys, tmp_path, monkeypatch
         assert _state(run_dir / f"run-{k}.json") == _state(reference["quick"] / f"run-{k}.json")
     text = (out / "casestudy.md").read_text()
     assert "Quick run" in text and "[Figs. 8 and 9](casestudy.md)" in (out / "index.md").read_text()
+
+
+def test_a_run_directory_in_use_is_refused_and_left_as_it_is(capsys, tmp_path, monkeypatch):
+    """Two commands on one run directory at once: the second one, whose settings differed, used to
+    delete the first one's config.json and directory on its way out (both runs lost). It is now
+    refused before it writes or removes anything, with the same settings too (no mixed runs)."""
+    from replication.casestudy.rundir import CONFIG_NAME, hold, write_config
+
+    monkeypatch.chdir(tmp_path)
+    run_dir = tmp_path / "shared"
+    argv = ["casestudy", "--run-dir", str(run_dir), "--executor", "serial", "--runs", "1"]
+    argv += ["--generations", "3", "--population", "6"]
+    with hold(run_dir):  # the first command, running
+        assert main(argv) == 1
+        assert "shared is in use by another command running the GA there" in capsys.readouterr().err
+        assert sorted(p.name for p in run_dir.iterdir()) == [".lock"]
+        write_config(run_dir, TINY)  # it gets going: same settings as the second command's
+        assert main(argv) == 1 and "in use" in capsys.readouterr().err
+        assert sorted(p.name for p in run_dir.iterdir()) == [".lock", CONFIG_NAME]
+    assert main(argv) == 0, capsys.readouterr().err  # free again: the second command runs
+    assert (run_dir / "run-0.json").is_file()

@@ -4,13 +4,19 @@
 validated when read (malformed JSON, unknown or missing settings, values GAConfig refuses)
 and a run directory with checkpoints but no ``config.json`` is refused, each with a
 :class:`~replication.errors.CheckpointError` naming the file and the fault.
+
+A command that runs the GA holds its run directory (:func:`hold`, an exclusive lock on
+``.lock`` in it): a second command on the same directory at the same time is refused
+instead of writing into the first one's run or removing it.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -19,9 +25,59 @@ from replication.casestudy.jet import JetConfig
 from replication.errors import CheckpointError, InputError
 from replication.io.atomic import atomic_write_text
 
-__all__ = ["CONFIG_NAME", "checkpoints", "config_from_dict", "read_config", "read_json", "write_config"]
+__all__ = [
+    "CONFIG_NAME",
+    "LOCK_NAME",
+    "RunDirBusyError",
+    "checkpoints",
+    "config_from_dict",
+    "hold",
+    "read_config",
+    "read_json",
+    "write_config",
+]
 
 CONFIG_NAME = "config.json"
+LOCK_NAME = ".lock"
+
+
+class RunDirBusyError(InputError):
+    """Another process holds the run directory."""
+
+
+@contextlib.contextmanager
+def hold(run_dir: str | os.PathLike[str]) -> Iterator[Path]:
+    """Create ``run_dir`` if needed and hold it for this process while the block runs.
+
+    The lock is an exclusive ``flock`` on ``run_dir/.lock``, released by the system when the
+    process ends however it ends (a crash leaves no stale lock). Where ``fcntl`` does not
+    exist (Windows) the directory is not locked.
+
+    Raises
+    ------
+    RunDirBusyError
+        When another process holds ``run_dir`` (nothing is created or changed then, beyond
+        the directory and its lock file).
+    """
+    run_dir = Path(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not on POSIX
+        yield run_dir
+        return
+    fd = os.open(run_dir / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise RunDirBusyError(
+                f"{run_dir} is in use by another command running the GA there; wait for it to end, or use "
+                "another run directory"
+            ) from None
+        yield run_dir
+    finally:
+        os.close(fd)
 
 
 def checkpoints(run_dir: str | os.PathLike[str]) -> list[Path]:

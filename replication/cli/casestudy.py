@@ -214,6 +214,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
 def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
     """Run the case study as planned; save its data and render the report into ``plan.out``."""
     from replication.casestudy.evaluate import executor
+    from replication.casestudy.rundir import hold
     from replication.experiments.casestudy import run_casestudy
     from replication.report.casestudy import render_casestudy, save_casestudy_data
 
@@ -225,32 +226,35 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
         executor, args.executor, workers=args.workers, scheduler=args.scheduler, on_interrupt=on_interrupt
     )
     fitness = sph_fitness(plan, args, workers=_workers(args))
-    try:
-        write_fitness_record(plan.run_dir, plan.solver)
-        with Progress(
-            config.runs * config.generations, "GA generations", initial=plan.done_generations
-        ) as bar:
+    # a second command on this directory is refused here, outside the try: its refusal removes nothing
+    with hold(plan.run_dir):
+        try:
+            write_fitness_record(plan.run_dir, plan.solver)
+            with Progress(
+                config.runs * config.generations, "GA generations", initial=plan.done_generations
+            ) as bar:
 
-            def tick(state: Any) -> None:
-                bar.update(1, run=state.run, best=f"{state.history[-1]['best_so_far']:.3f} N")
+                def tick(state: Any) -> None:
+                    bar.update(1, run=state.run, best=f"{state.history[-1]['best_so_far']:.3f} N")
 
-            results = run_casestudy(
-                config, run_dir=plan.run_dir, pool_factory=pool, resume=plan.resume, on_generation=tick,
-                command=args.invocation, quick=plan.quick, timing_repeats=20 if plan.quick else 100,
-                rescore=plan.rescore, on_rescored=report_rescored, fitness=fitness, solver=plan.solver,
-            )  # fmt: skip
-    except KeyboardInterrupt:
-        from replication.casestudy.rundir import CONFIG_NAME
+                results = run_casestudy(
+                    config, run_dir=plan.run_dir, pool_factory=pool, resume=plan.resume, on_generation=tick,
+                    command=args.invocation, quick=plan.quick, timing_repeats=20 if plan.quick else 100,
+                    rescore=plan.rescore, on_rescored=report_rescored, fitness=fitness, solver=plan.solver,
+                )  # fmt: skip
+        except KeyboardInterrupt:
+            from replication.casestudy.rundir import CONFIG_NAME
 
-        if (plan.run_dir / CONFIG_NAME).is_file():
-            saved = f"every completed generation is saved in {plan.run_dir}; resume with: {plan.hint}"
-        else:
-            saved = "the GA had not started: nothing to resume"
-        print(f"interrupted: {saved}", file=sys.stderr)
-        raise
-    except BaseException:
-        remove_unused_run_dir(plan.run_dir, plan.created)
-        raise
+            if (plan.run_dir / CONFIG_NAME).is_file():
+                saved = f"every completed generation is saved in {plan.run_dir}; resume with: {plan.hint}"
+            else:
+                saved = "the GA had not started: nothing to resume"
+                remove_unused_run_dir(plan.run_dir, plan.created)
+            print(f"interrupted: {saved}", file=sys.stderr)
+            raise
+        except BaseException:
+            remove_unused_run_dir(plan.run_dir, plan.created)
+            raise
     save_casestudy_data(results, plan.out)
     return results, render_casestudy(plan.out, workers=_workers(args))
 

@@ -92,11 +92,12 @@ def remove_unused_run_dir(run_dir: Path, created: tuple[Path, ...]) -> None:
     A run directory with checkpoints is kept (it can be resumed); one holding only the
     ``config.json`` written at the start is not worth leaving behind after an error.
     """
-    from replication.casestudy.rundir import CONFIG_NAME, checkpoints
+    from replication.casestudy.rundir import CONFIG_NAME, LOCK_NAME, checkpoints
 
     if not created or checkpoints(run_dir):
         return
     with contextlib.suppress(OSError):
         (run_dir / CONFIG_NAME).unlink(missing_ok=True)
+        (run_dir / LOCK_NAME).unlink(missing_ok=True)
         for directory in created:  # deepest first; stops at the first one not empty
             directory.rmdir()
