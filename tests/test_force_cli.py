@@ -106,3 +106,19 @@ def test_unreadable_inputs(capsys, tmp_path):
     (tmp_path / "broken.vtk").write_text("not a vtk file")
     with pytest.raises(CloudFileError):
         run(capsys, "force", str(tmp_path / "broken.vtk"))
+
+
+@pytest.mark.parametrize("where", ["steps.csv", "inner/cloud.csv"])
+def test_an_sph_run_directory_that_holds_the_input_is_refused(capsys, tmp_path, where):
+    """The simulation writes steps.csv, series.csv, ... into --run-dir: a cloud named steps.csv
+    there was overwritten by the engine's output (exit 0)."""
+    run_dir = tmp_path / "rd"
+    path = run_dir / where
+    path.parent.mkdir(parents=True)
+    save_cloud(pelton_bucket_cloud(), path)
+    before = path.read_bytes()
+    with pytest.raises(
+        InputError, match=r"--run-dir .* holds INPUT .*: the simulation writes its files there"
+    ):
+        run(capsys, "force", str(path), "--solver", "sph", "--run-dir", str(run_dir))
+    assert path.read_bytes() == before

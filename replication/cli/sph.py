@@ -76,7 +76,9 @@ def _settings(args: argparse.Namespace) -> Any:
 
 
 def check_force_options(args: argparse.Namespace) -> None:
-    """Refuse SPH options without ``--solver sph``."""
+    """Refuse SPH options without ``--solver sph``, and a ``--run-dir`` that holds INPUT."""
+    from pathlib import Path
+
     from replication.errors import InputError
 
     if args.solver != "sph":
@@ -84,6 +86,14 @@ def check_force_options(args: argparse.Namespace) -> None:
         if given:
             flag = "--" + given[0].replace("_", "-")
             raise InputError(f"{flag} applies only with --solver sph")
+    source = getattr(args, "input", None)
+    if getattr(args, "run_dir", None) and source:
+        run_dir, path = Path(args.run_dir).resolve(), Path(source).resolve()
+        if run_dir == path or run_dir in path.parents:  # the engine's files (steps.csv, ...) go there
+            raise InputError(
+                f"--run-dir {args.run_dir} holds INPUT {source}: the simulation writes its files there "
+                "(scene, engine log, steps.csv, series.csv, result.json); use a directory of their own"
+            )
 
 
 def force_sph(
