@@ -52,6 +52,25 @@ def test_resuming_keeps_the_run_s_own_destination(tmp_path, monkeypatch):
 
 
 @pytest.mark.slow
+def test_a_render_that_fails_on_its_data_removes_no_figure(capsys, quick_reports, tmp_path):
+    """The stale figures were cleared before the data was read: a provenance without the
+    duplicate policy (or a shapes table without the flat plate) failed the render after all
+    six case-study figures were gone, while the old casestudy.md still linked to them."""
+    import json
+
+    out = tmp_path / "rep"
+    shutil.copytree(quick_reports / "data", out / "data", ignore=shutil.ignore_patterns("table1*"))
+    shutil.copytree(quick_reports / "figures", out / "figures")
+    before = sorted(p.name for p in (out / "figures").iterdir())
+    provenance = out / "data" / "casestudy_provenance.json"
+    record = json.loads(provenance.read_text())
+    del record["config"]["duplicates"]
+    provenance.write_text(json.dumps(record))
+    assert main(["report", "--output-dir", str(out)]) == 1
+    assert sorted(p.name for p in (out / "figures").iterdir()) == before
+    capsys.readouterr()
+
+
 def test_report_states_settings_and_keeps_no_stale_figures(capsys, quick_reports, tmp_path):
     out = tmp_path / "rep"
     shutil.copytree(quick_reports / "data", out / "data", ignore=shutil.ignore_patterns("table1*"))

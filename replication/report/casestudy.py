@@ -23,7 +23,7 @@ from replication.experiments.casestudy import differences_from_paper
 from replication.io.atomic import atomic_write_text
 from replication.report.casestudy_rescore import rescore_section, save_rescore_data  # issue 11
 from replication.report.casestudy_validation import fitness_note, validation_section  # issue 11
-from replication.report.figures import clear_figures, save_figure
+from replication.report.figures import clear_figures, figure_files, save_figure
 from replication.report.markdown import fmt, iqr, provenance_section, table
 from replication.report.parallel import run_figure_tasks
 from replication.report.render3d import render_views
@@ -169,7 +169,7 @@ def render_casestudy(out_dir: str | os.PathLike[str], *, workers: int = 1) -> Pa
     prov = d["provenance"]
     config = prov["config"]
     jet = config["jet"]
-    clear_figures(figures, "casestudy_")  # e.g. casestudy_best_run2.png of an earlier 3-run report
+    earlier = figure_files(figures, "casestudy_")  # those not drawn again are an earlier run's
     drawn = run_figure_tasks(  # the longest first
         [
             functools.partial(_renders, d, figures, config["duplicates"]),
@@ -364,4 +364,5 @@ replication report                  # re-render from data/ only
 """
     path = out / "casestudy.md"
     atomic_write_text(path, text)
+    clear_figures(figures, "casestudy_", before=earlier)  # e.g. casestudy_best_run2.png of a 3-run report
     return path

@@ -14,7 +14,7 @@ from matplotlib.figure import Figure
 from replication.experiments.claims import PAPER
 from replication.io.atomic import atomic_path
 
-__all__ = ["clear_figures", "save_figure", "fig6"]
+__all__ = ["clear_figures", "fig6", "figure_files", "save_figure"]
 
 
 def save_figure(
@@ -33,20 +33,37 @@ def save_figure(
     return paths
 
 
-def clear_figures(figures: str | os.PathLike[str], prefix: str) -> list[Path]:
-    """Remove a report's own generated figures (``prefix*.png``/``.svg``) before it renders anew.
+def _own_figures(directory: Path, prefix: str) -> list[Path]:
+    if not directory.is_dir():
+        return []
+    return [p for p in sorted(directory.glob(f"{prefix}*")) if p.is_file() and p.suffix in (".png", ".svg")]
+
+
+def figure_files(figures: str | os.PathLike[str], prefix: str) -> dict[Path, tuple[int, int]]:
+    """A report's own figures (``prefix*.png``/``.svg``) and their identity (inode, mtime):
+    taken before a render, it tells :func:`clear_figures` which files the render did not write
+    (every figure is written by an atomic replace, so a rewritten one has a new inode)."""
+    return {p: (p.stat().st_ino, p.stat().st_mtime_ns) for p in _own_figures(Path(figures), prefix)}
+
+
+def clear_figures(
+    figures: str | os.PathLike[str], prefix: str, *, before: dict[Path, tuple[int, int]] | None = None
+) -> list[Path]:
+    """Remove a report's own generated figures (``prefix*.png``/``.svg``) that a render left stale.
 
     A report's set of figures depends on its data (one render per GA run, one per n), so
     a re-render must not leave figures of an earlier run next to its own. Only files named
-    with the report's prefix are removed. Returns the removed paths.
+    with the report's prefix are removed; with ``before`` (:func:`figure_files` taken before
+    the render) only those the render did not write again. The renderers call it after a
+    render that succeeded, so one that fails on its data removes nothing. Returns the
+    removed paths.
     """
-    directory = Path(figures)
     removed = []
-    if directory.is_dir():
-        for path in sorted(directory.glob(f"{prefix}*")):
-            if path.is_file() and path.suffix in (".png", ".svg"):
-                path.unlink()
-                removed.append(path)
+    for path in _own_figures(Path(figures), prefix):
+        if before is not None and before.get(path) != (path.stat().st_ino, path.stat().st_mtime_ns):
+            continue  # written by this render
+        path.unlink()
+        removed.append(path)
     return removed
 
 

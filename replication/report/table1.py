@@ -19,7 +19,7 @@ from replication.experiments.table1_claims import STORAGE_HEADLINE, WHY_ABSOLUTE
 from replication.io.atomic import atomic_write_text
 from replication.io.nurbs import write_nurbs
 from replication.io.vtk import read_surface, write_vtk
-from replication.report.figures import clear_figures, fig6, scale_figure
+from replication.report.figures import clear_figures, fig6, figure_files, scale_figure
 from replication.report.markdown import fmt, iqr, provenance_section, table
 from replication.report.render3d import render_views
 from replication.report.store import read_csv, read_json, write_csv, write_json
@@ -346,7 +346,7 @@ def render_table1(out_dir: str | os.PathLike[str]) -> Path:
     out = Path(out_dir)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     d = load_table1_data(out)
-    clear_figures(out / "figures", "table1_")  # no figure of an earlier run stays beside these
+    earlier = figure_files(out / "figures", "table1_")  # those not drawn again are an earlier run's
     prov, config = d["provenance"], d["provenance"]["config"]
     fig6(d["montecarlo"], out / "figures" / "table1_fig6")
     scale_figure(d["scale"], out / "figures" / "table1_scale")
@@ -518,4 +518,5 @@ replication report            # re-render the markdown and figures from data/ on
 """
     path = out / "table1.md"
     atomic_write_text(path, text)
+    clear_figures(out / "figures", "table1_", before=earlier)  # no earlier run's figure stays beside these
     return path
