@@ -60,6 +60,16 @@ CORRUPTIONS = [
     (_set("run", 1), "checkpoint of run 1, expected run 0"),
     (lambda s: s.pop("cache"), "missing field(s) cache"),
     (_set("cache", {}), "genome 0 is not in the evaluation cache"),
+    # found by an adversarial review: a run-0.json copied from a run seeded 6 into this one (seed
+    # 7) resumed and was reported as seed 7; a generator state out of range raised OverflowError;
+    # a history value that is not a number failed only after the whole GA had run
+    (_set("seed", [6, 0]), "checkpoint of a run seeded [6, 0], expected [7, 0]"),
+    (lambda s: s["rng_state"]["state"].__setitem__("state", -5), "not a valid PCG64 state"),
+    (lambda s: s["history"][0].__setitem__("best", "x"), "history entry 1: best must be a number, got 'x'"),
+    (
+        lambda s: s["history"][1].__setitem__("evaluations", 2.5),
+        "history entry 2: evaluations must be an integer",
+    ),
 ]
 
 
@@ -123,6 +133,12 @@ def test_cli_refuses_a_bad_checkpoint_before_any_work(capsys, run_dir, monkeypat
     assert main(["casestudy", "--run-dir", str(run_dir), "--resume", "--executor", "serial"]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "run-0.json: not a valid GA checkpoint: generation 99" in err
+
+
+def test_checkpoints_record_their_seed_and_older_ones_without_it_still_load(run_dir):
+    assert json.loads((run_dir / "run-0.json").read_text())["seed"] == [7, 0]
+    _edit(run_dir, lambda s: s.pop("seed"))  # as written before the seed was recorded
+    assert load_run(run_dir, 0, SMALL).seed is None
 
 
 def test_a_valid_checkpoint_still_resumes(run_dir):

@@ -50,6 +50,7 @@ class GARun:
     cache: dict[str, float | None] = field(default_factory=dict)
     failures: list[dict[str, Any]] = field(default_factory=list)
     seconds: list[float] = field(default_factory=list)  # wall time per generation (not state)
+    seed: list[int] | None = None  # the generator's seed, [config.seed, run]; None in older checkpoints
 
     @property
     def best_index(self) -> int:
@@ -85,6 +86,7 @@ class GARun:
             "cache": self.cache,
             "failures": self.failures,
             "seconds": self.seconds,
+            "seed": self.seed,
         }
 
     @classmethod
@@ -99,6 +101,7 @@ class GARun:
             cache=state["cache"],
             failures=state["failures"],
             seconds=state.get("seconds", []),
+            seed=state.get("seed"),
         )
 
 
@@ -123,6 +126,12 @@ def _fault(state: Any, config: GAConfig, run: int) -> str | None:
         return f"missing field(s) {', '.join(missing)}"
     if state["run"] != run:
         return f"it is the checkpoint of run {state['run']!r}, expected run {run}"
+    seed = state.get("seed")  # absent from checkpoints written before it was recorded
+    if seed is not None and seed != [config.seed, run]:
+        return (
+            f"it is the checkpoint of a run seeded {seed!r}, expected [{config.seed}, {run}] (the seed of "
+            "this run directory's config.json): it comes from another run directory"
+        )
     generation = state["generation"]
     if not _is_int(generation) or not 1 <= generation <= config.generations:
         return f"generation {generation!r} is outside 1..{config.generations} (the configured generations)"
@@ -163,6 +172,14 @@ def _fault(state: Any, config: GAConfig, run: int) -> str | None:
             return f"history entry {k} lacks one of {', '.join(_HISTORY_KEYS)}"
         if entry["generation"] != k:
             return f"history entry {k} is labelled generation {entry['generation']!r}"
+        for key in ("best", "best_so_far"):  # -inf: every evaluation of the generation failed
+            value = entry[key]
+            number = isinstance(value, (int, float)) and not isinstance(value, bool)
+            if not (number and not math.isnan(value)):
+                return f"history entry {k}: {key} must be a number, got {value!r}"
+        for key in ("evaluations", "cache_hits", "failures"):
+            if not _is_int(entry[key]):
+                return f"history entry {k}: {key} must be an integer, got {entry[key]!r}"
     if not isinstance(state["failures"], list):
         return "failures must be a list"
     if not isinstance(state.get("seconds", []), list):
@@ -172,7 +189,7 @@ def _fault(state: Any, config: GAConfig, run: int) -> str | None:
         return "rng_state is not the state of numpy's PCG64 generator"
     try:
         np.random.default_rng().bit_generator.state = rng_state
-    except (TypeError, ValueError, KeyError) as exc:
+    except (TypeError, ValueError, KeyError, OverflowError) as exc:
         return f"rng_state is not a valid PCG64 state ({exc})"
     return None
 
