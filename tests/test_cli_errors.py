@@ -184,10 +184,14 @@ def test_report_with_corrupt_data(capsys, quick_reports, tmp_path, name, content
 @pytest.mark.slow
 def test_report_readme_problems(capsys, report_copy, tmp_path):
     (tmp_path / "plain.md").write_text("no markers\n")
+    (tmp_path / "swapped.md").write_text(
+        "<!-- headline:end -->\n<!-- headline:start -->\n"
+    )  # was: IndexError
     cases = [
         (tmp_path / "missing.md", "no such file"),
         (tmp_path, "is a directory"),
         (tmp_path / "plain.md", "no <!-- headline:start -->"),
+        (tmp_path / "swapped.md", "marker comes before"),
     ]
     for readme, match in cases:
         code, _, err = run(capsys, "report", "--output-dir", report_copy, "--readme", readme)

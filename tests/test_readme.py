@@ -81,3 +81,19 @@ def test_one_quick_reports_test_runs_first_and_the_others_last():
     alone = [item("a"), item("r1", "quick_reports"), item("b")]
     pytest_collection_modifyitems(None, None, alone)
     assert [i.name for i in alone] == ["a", "r1", "b"]  # one such test: nobody waits, order kept
+
+
+def test_the_readme_block_keeps_the_file_s_line_ends_and_its_link(tmp_path):
+    """A CRLF README was rewritten with LF line ends, and a README that is a symbolic link was
+    replaced by a file while its target kept the old block."""
+    from replication.report.index import END, START, update_readme
+
+    real = tmp_path / "real.md"
+    real.write_bytes(f"# Title\r\n\r\n{START}\r\nOLD-BLOCK-LINE\r\n{END}\r\ntail\r\n".encode())
+    link = tmp_path / "README.md"
+    link.symlink_to(real)
+    update_readme(link, ROOT / "reports")
+    data = real.read_bytes()
+    assert link.is_symlink() and b"OLD-BLOCK-LINE" not in data
+    assert data.count(b"\n") == data.count(b"\r\n") > 6
+    assert data.startswith(b"# Title\r\n\r\n") and data.endswith(f"{END}\r\ntail\r\n".encode())

@@ -77,6 +77,10 @@ def _check_readme(readme: str, out: Path) -> Path:
         raise InputError(f"--readme {path}: cannot read it as UTF-8 text ({exc})") from exc
     if START not in text or END not in text:
         raise InputError(f"--readme {path} has no {START} ... {END} block to fill")
+    if text.index(END) < text.index(START):
+        raise InputError(
+            f"--readme {path}: its {END} marker comes before {START}, so there is no block to fill"
+        )
     data = sorted((out / "data").glob("*")) if (out / "data").is_dir() else []
     check_distinct(
         [("--readme", path), *((f"the report {name}", out / name) for name in RENDERED)],

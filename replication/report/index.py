@@ -135,16 +135,22 @@ def _paper_force(shape: pd.Series) -> str:
 
 
 def update_readme(readme: str | os.PathLike[str], out_dir: str | os.PathLike[str]) -> Path:
-    """Replace the block between the headline markers of a README with :func:`headline`."""
-    path = Path(readme)
-    text = path.read_text()
-    if START not in text or END not in text:
+    """Replace the block between the headline markers of a README with :func:`headline`.
+
+    The README keeps its line ends (CRLF stays CRLF) and, when it is a symbolic link, stays
+    one: the file it points to is rewritten.
+    """
+    path = Path(readme).resolve()  # a link's target, not the link replaced by a file
+    with open(path, encoding="utf-8", newline="") as stream:  # newline="": \r\n read as written
+        text = stream.read()
+    if START not in text or END not in text or text.index(END) < text.index(START):
         raise CloudFileError(f"{path} has no {START} ... {END} block to fill")
     before, rest = text.split(START, 1)
     after = rest.split(END, 1)[1]
-    block = "\n".join([START, *headline(out_dir), END])
+    newline = "\r\n" if "\r\n" in before + after else "\n"
+    block = newline.join([START, *headline(out_dir), END])
     atomic_write_text(path, before + block + after)
-    return path
+    return Path(readme)
 
 
 def render_index(out_dir: str | os.PathLike[str]) -> Path:
