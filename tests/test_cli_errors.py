@@ -347,3 +347,17 @@ def test_interrupt_inside_compiled_code_exits_130(capsys, monkeypatch):
     monkeypatch.setattr("replication.cli.surfaces._cmd_adt", interrupted)
     code, _, err = run(capsys, "adt", "--random", "5")
     assert code == 130 and err == "replication adt: interrupted\n"
+
+
+def test_a_closed_pipe_ends_the_command_quietly(capsys, monkeypatch):
+    """``replication adt ... --json | head -c 100`` ended in 'unexpected BrokenPipeError'."""
+    import io
+    import sys
+
+    class Closed(io.StringIO):
+        def write(self, text):
+            raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(sys, "stdout", Closed())
+    assert main(["adt", "--random", "20", "--seed", "1", "--json"]) == 141
+    assert capsys.readouterr().err == ""

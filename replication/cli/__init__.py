@@ -10,7 +10,9 @@ to run again with ``--debug`` for the traceback.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import os
 import shlex
 import sys
 from collections.abc import Callable, Iterable, Sequence
@@ -141,6 +143,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"{name}: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader went away (``replication adt ... --json | head``): quietly
+        with contextlib.suppress(OSError, ValueError):  # no second error when stdout is flushed at exit
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141  # 128 + SIGPIPE, as a shell pipeline's other programs end
     except Exception as exc:
         if _interrupted(exc):  # Ctrl-C inside compiled code surfaces as another exception
             print(f"{name}: interrupted", file=sys.stderr)
