@@ -146,3 +146,14 @@ def test_a_valid_checkpoint_still_resumes(run_dir):
     assert state is not None and state.generation == 4
     again = run_ga(SMALL, 0, run_dir=run_dir, pool_factory=serial, resume=True)
     assert again.state() == state.state()
+
+
+def test_numpy_integer_settings_are_written_as_json(tmp_path):
+    """GAConfig accepted numpy integers but kept them: config.json could not be written
+    ('Object of type int64 is not JSON serializable'), nor the checkpoint's seed."""
+    import numpy as np
+
+    config = GAConfig(population=np.int64(8), generations=np.int32(4), elites=2, seed=np.int64(7))
+    assert config == SMALL and type(config.seed) is int and type(config.population) is int
+    run_ga(config, 0, run_dir=tmp_path / "run", pool_factory=serial)
+    assert json.loads((tmp_path / "run" / "run-0.json").read_text())["seed"] == [7, 0]

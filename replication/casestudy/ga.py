@@ -77,6 +77,7 @@ class GAConfig:
             minimum = 0 if name == "elites" else 1
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
                 raise InputError(f"GA {name} must be an integer >= {minimum}, got {value!r}")
+            object.__setattr__(self, name, int(value))  # numpy integers: not JSON (config.json)
         if self.resolution > MAX_RESOLUTION // 4:
             raise InputError(
                 f"GA resolution must be at most {MAX_RESOLUTION // 4} (the case study also scores its "
@@ -108,6 +109,7 @@ class GAConfig:
             )
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
             raise InputError(f"GA seed must be a non-negative integer, got {self.seed!r}")
+        object.__setattr__(self, "seed", int(self.seed))
         if self.jet.domain is not None:  # every lattice point must lie in the jet model's domain
             domain_mm = to_millimetres(self.jet.domain)
             if lo.min() < 0 or np.any(hi > domain_mm * (1 + 1e-9)):

@@ -144,7 +144,7 @@ def run_ga(
     if state is not None and state.generation >= config.generations:
         return state
     if state is not None:
-        state.seed = [config.seed, run]  # checked by load_run when recorded; recorded from now on
+        state.seed = [int(config.seed), int(run)]  # checked by load_run when recorded; recorded from now on
     own = dispatcher is None
     pool = Dispatcher(pool_factory) if pool_factory is not None else dispatcher
     assert pool is not None
@@ -155,7 +155,7 @@ def run_ga(
                     rng = np.random.default_rng([config.seed, run])
                     genomes = initial_population(config, rng=rng)
                     state = GARun(run, 0, genomes, np.full(config.population, WORST), rng.bit_generator.state)
-                    state.seed = [config.seed, run]
+                    state.seed = [int(config.seed), int(run)]
                 else:
                     rng = np.random.default_rng()
                     rng.bit_generator.state = state.rng_state
