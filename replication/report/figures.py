@@ -39,11 +39,16 @@ def _own_figures(directory: Path, prefix: str) -> list[Path]:
     return [p for p in sorted(directory.glob(f"{prefix}*")) if p.is_file() and p.suffix in (".png", ".svg")]
 
 
+def _identity(path: Path) -> tuple[int, int]:
+    stat = path.stat()
+    return stat.st_ino, stat.st_mtime_ns
+
+
 def figure_files(figures: str | os.PathLike[str], prefix: str) -> dict[Path, tuple[int, int]]:
     """A report's own figures (``prefix*.png``/``.svg``) and their identity (inode, mtime):
     taken before a render, it tells :func:`clear_figures` which files the render did not write
     (every figure is written by an atomic replace, so a rewritten one has a new inode)."""
-    return {p: (p.stat().st_ino, p.stat().st_mtime_ns) for p in _own_figures(Path(figures), prefix)}
+    return {p: _identity(p) for p in _own_figures(Path(figures), prefix)}
 
 
 def clear_figures(
@@ -60,7 +65,7 @@ def clear_figures(
     """
     removed = []
     for path in _own_figures(Path(figures), prefix):
-        if before is not None and before.get(path) != (path.stat().st_ino, path.stat().st_mtime_ns):
+        if before is not None and before.get(path) != _identity(path):
             continue  # written by this render
         path.unlink()
         removed.append(path)

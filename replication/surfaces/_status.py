@@ -14,6 +14,7 @@ __all__ = [
     "STATUS_OK",
     "STATUS_RANGE",
     "STATUS_SKIPPED",
+    "out_of_range",
 ]
 
 #: The block was triangulated.
@@ -29,3 +30,9 @@ STATUS_SKIPPED = 2
 STATUS_RANGE = 3
 SAFE_MAGNITUDE_LOW = 2.0**-128
 SAFE_MAGNITUDE_HIGH = 2.0**128
+
+
+def out_of_range(top: float) -> bool:
+    """Whether a cloud whose largest absolute coordinate is ``top`` must be scaled first (the
+    compiled one-call kernel makes the same test inline)."""
+    return top != 0.0 and not SAFE_MAGNITUDE_LOW <= top <= SAFE_MAGNITUDE_HIGH

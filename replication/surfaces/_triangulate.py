@@ -27,12 +27,11 @@ import numpy as np
 
 from replication import _aot
 from replication.surfaces._status import (
-    SAFE_MAGNITUDE_HIGH,
-    SAFE_MAGNITUDE_LOW,
     STATUS_COLLINEAR,
     STATUS_OK,
     STATUS_RANGE,
     STATUS_SKIPPED,
+    out_of_range,
 )
 from replication.surfaces._threads import frozen
 from replication.surfaces._threads import run as _run
@@ -125,7 +124,7 @@ def triangulate(
     from replication.surfaces._partition import magnitude
 
     top = magnitude(points, axes) if n >= 3 else 0.0
-    if top != 0.0 and not SAFE_MAGNITUDE_LOW <= top <= SAFE_MAGNITUDE_HIGH:  # the caller scales the cloud
+    if out_of_range(top):  # the caller scales the cloud
         return _failed(np.int32, STATUS_RANGE, 1)
     result = _triangulate(points, axes, levels)
     if result.status != STATUS_OK and result.blocks > 1:

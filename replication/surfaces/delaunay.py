@@ -120,13 +120,20 @@ def _qhull(points: np.ndarray, axes: tuple[int, int]):
     )
 
 
-def _scaled(points: np.ndarray, axes: tuple[int, int], top: float) -> tuple[np.ndarray, tuple[int, int]]:
-    """The (u, v) columns times the power of two that puts their largest absolute value
-    ``top`` in [0.5, 1): exact, or an error when the scaling would round a coordinate."""
+def _in_range(points: np.ndarray, axes: tuple[int, int]) -> tuple[np.ndarray, tuple[int, int]]:
+    """``(points, axes)`` when the largest absolute (u, v) coordinate lies in the exact
+    predicates' range (every cloud of sane units), else the (u, v) columns times the power of
+    two that puts it in [0.5, 1): exact, or an error when the scaling would round a coordinate."""
+    from replication.surfaces._status import out_of_range
+
+    columns = points[:, list(axes)]
+    size = np.abs(columns)
+    top = float(size.max()) if points.shape[0] else 0.0
+    if not out_of_range(top):
+        return points, axes
     shift = -math.frexp(top)[1]
-    uv = np.ldexp(points[:, list(axes)], shift)
-    if shift < 0 and not np.array_equal(np.ldexp(uv, -shift), points[:, list(axes)]):
-        size = np.abs(points[:, list(axes)])
+    uv = np.ldexp(columns, shift)
+    if shift < 0 and not np.array_equal(np.ldexp(uv, -shift), columns):
         smallest = float(size[size > 0].min())
         raise DegenerateInputError(
             f"the projected coordinates span too wide a range to triangulate exactly: from {smallest:.3g} to "
@@ -134,17 +141,6 @@ def _scaled(points: np.ndarray, axes: tuple[int, int], top: float) -> tuple[np.n
             "rounded); rescale the cloud or drop the outlying points"
         )
     return uv, (0, 1)
-
-
-def _in_range(points: np.ndarray, axes: tuple[int, int]) -> tuple[np.ndarray, tuple[int, int]]:
-    """``(points, axes)`` when the largest absolute (u, v) coordinate lies in the exact
-    predicates' range (every cloud of sane units), else the scaled (u, v) columns."""
-    from replication.surfaces._status import SAFE_MAGNITUDE_HIGH, SAFE_MAGNITUDE_LOW
-
-    top = float(np.abs(points[:, list(axes)]).max()) if points.shape[0] else 0.0
-    if top == 0.0 or SAFE_MAGNITUDE_LOW <= top <= SAFE_MAGNITUDE_HIGH:
-        return points, axes
-    return _scaled(points, axes, top)
 
 
 def planar_delaunay(points: np.ndarray, axes: tuple[int, int] = (0, 1), *, backend: Backend = "auto"):
