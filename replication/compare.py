@@ -27,8 +27,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from replication.errors import DegenerateInputError, InputError
+from replication.params import count_pair, real
 from replication.stats import PairedStatistics, paired_statistics
-from replication.surfaces.adt import DEFAULT_TIE_RTOL, Surface, adt
+from replication.surfaces.adt import DEFAULT_TIE_RTOL, Surface, _readonly, adt
 from replication.surfaces.bspline import evaluate, invert, parameter_grid
 from replication.surfaces.cloud import as_cloud
 from replication.surfaces.delaunay import Backend
@@ -86,7 +87,16 @@ def pair_at_nurbs_samples(
     _check_frames(surface, nurbs)
     shape = shape or nurbs.patch.net_shape
     points = evaluate(nurbs.patch, parameter_grid(shape))
-    positions = points[:, list(nurbs.projection_axes)]
+    # the surface spans the grid's box exactly (convex combinations of its nodes); rounding can put
+    # a sample on the box's edge a hair outside it, where a lattice's hull edge runs: clipped, it
+    # is kept or dropped by the geometry, not by the units or the offset of the cloud
+    grid = nurbs.grid
+    positions = np.column_stack(
+        [
+            np.clip(points[:, nurbs.projection_axes[0]], grid.u[0], grid.u[-1]),
+            np.clip(points[:, nurbs.projection_axes[1]], grid.v[0], grid.v[-1]),
+        ]
+    )
     adt_depth = interpolate_linear(
         surface.projected(),
         surface.triangles,
@@ -97,9 +107,9 @@ def pair_at_nurbs_samples(
     inside = ~np.isnan(adt_depth)
     return PairedDepths(
         pairing="nurbs-samples",
-        positions=positions[inside],
-        adt=adt_depth[inside],
-        nurbs=points[inside, nurbs.depth_axis],
+        positions=_readonly(positions[inside]),
+        adt=_readonly(adt_depth[inside]),
+        nurbs=_readonly(points[inside, nurbs.depth_axis]),
         n_candidates=int(positions.shape[0]),
         n_outside_adt=int((~inside).sum()),
         n_outside_nurbs=0,
@@ -115,9 +125,9 @@ def pair_at_cloud_points(surface: Surface, nurbs: NurbsSurface) -> PairedDepths:
     ok = inversion.converged
     return PairedDepths(
         pairing="cloud-points",
-        positions=positions[ok],
-        adt=adt_depth[ok],
-        nurbs=inversion.points[ok, nurbs.depth_axis],
+        positions=_readonly(positions[ok]),
+        adt=_readonly(adt_depth[ok]),
+        nurbs=_readonly(inversion.points[ok, nurbs.depth_axis]),
         n_candidates=int(positions.shape[0]),
         n_outside_adt=0,
         n_outside_nurbs=int((~ok).sum()),
@@ -176,6 +186,10 @@ def compare(
     deviations of the two surfaces.
     """
     cloud = as_cloud(points)
+    if sample_shape is not None:  # (0, 5) gave no pairing without a word
+        sample_shape = count_pair(sample_shape, "sample_shape", 2)
+    real(alpha, "alpha")  # checked before the fitting, not after it
+    real(margin_fraction, "margin_fraction")
     surface = adt(cloud, depth=depth, duplicates=duplicates, backend=backend, tie_rtol=tie_rtol)
     nurbs = fit_nurbs(cloud, degree=degree, net=net, tessellation=None, triangulation=surface)
     depth_range = float(np.ptp(cloud[:, surface.depth_axis]))

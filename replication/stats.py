@@ -23,6 +23,7 @@ equivalence (zero spread, zero mean).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -30,6 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from replication.errors import InputError
+from replication.params import real
 
 __all__ = ["ROUNDING_FRACTION", "TestResult", "PairedStatistics", "paired_statistics"]
 
@@ -120,7 +122,27 @@ class PairedStatistics:
 _PERMUTATION_MAX_N = 13
 
 
-def _wilcoxon(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
+def _snapped(d: np.ndarray, tolerance: float) -> np.ndarray:
+    """``d`` with rounding-level distinctions removed: ``|d|`` at most ``tolerance`` becomes 0,
+    and magnitudes within ``tolerance`` of the next smaller one (a chain of them) take the
+    smallest magnitude of their run, keeping their signs.
+
+    The signed-rank test ranks ``|d|`` and treats equal values as ties and zeros as no
+    difference, by exact equality: without this the same depths in metres and in millimetres
+    (or shifted by 1000) can rank differently (0.2 and 0.2 in mm are 0.0002 and
+    0.00019999999999999998 in m) and flip the verdict.
+    """
+    magnitude = np.abs(d)
+    magnitude[magnitude <= tolerance] = 0.0
+    order = np.argsort(magnitude, kind="stable")
+    ranked = magnitude[order]
+    starts = np.concatenate([[True], np.diff(ranked) > tolerance])
+    snapped = np.empty_like(magnitude)
+    snapped[order] = ranked[starts][np.cumsum(starts) - 1]
+    return np.copysign(snapped, d)
+
+
+def _wilcoxon(a: np.ndarray, b: np.ndarray, tolerance: float = 0.0) -> tuple[float, float]:
     """``scipy.stats.wilcoxon(a, b)``'s statistic and p-value, the permutation case vectorised.
 
     With ties or zeros among at most 13 differences scipy enumerates all ``2**n`` sign flips
@@ -134,6 +156,11 @@ def _wilcoxon(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
     from scipy import stats
 
     d = a - b
+    snapped = _snapped(d, tolerance) if tolerance > 0 else d
+    if not np.array_equal(snapped, d):  # rounding-level ties and zeros made exact
+        a, b, d = snapped, np.zeros_like(snapped), snapped
+        if not d.any():  # every difference is rounding: no evidence of a difference at all
+            return 0.0, 1.0
     nonzero = d != 0
     magnitudes = np.abs(d[nonzero])
     ties = np.unique(magnitudes).size < magnitudes.size
@@ -184,6 +211,9 @@ def paired_statistics(
     -----
     Paper section 4 (paired t-test and Wilcoxon signed-rank test on the z deviations).
     """
+    depth_range = real(depth_range, "depth_range")
+    alpha = real(alpha, "alpha")
+    margin_fraction = real(margin_fraction, "margin_fraction")
     a = np.asarray(a, dtype=np.float64).ravel()
     b = np.asarray(b, dtype=np.float64).ravel()
     if a.shape != b.shape:
@@ -199,6 +229,59 @@ def paired_statistics(
     if not margin_fraction > 0:
         raise InputError(f"equivalence margin must be positive, got {margin_fraction=}")
 
+    k = _exact_scaling(a, b, depth_range)
+    if k:  # squares of these depths under- or overflow: compute at a scale where they do not
+        scaled = _paired(
+            np.ldexp(a, k), np.ldexp(b, k), float(np.ldexp(depth_range, k)), margin_fraction, alpha
+        )
+        return _rescaled(scaled, -k)
+    return _paired(a, b, float(depth_range), margin_fraction, alpha)
+
+
+#: Differences whose largest magnitude lies outside [2**-LIMIT, 2**LIMIT] are scaled first: their
+#: squares (variance, RMS) would under- or overflow float64 (2**-1074 .. 2**1024).
+_SCALING_LIMIT = 400
+
+
+def _exact_scaling(a: np.ndarray, b: np.ndarray, depth_range: float) -> int:
+    """An even power of two that brings the differences near 1, or 0 where none is needed.
+
+    Scaling by 2**k with k even is exact for every operation of the tests: sums, products,
+    quotients and square roots (sqrt(4**j x) = 2**j sqrt(x) exactly), so the statistics are
+    those of the data as given, without their squares under- or overflowing. Normal data
+    are never scaled (their results are unchanged to the bit).
+    """
+    largest = float(np.max(np.abs(a - b)))
+    if largest == 0.0 or 2.0**-_SCALING_LIMIT <= largest <= 2.0**_SCALING_LIMIT:
+        return 0
+    k = -(np.frexp(largest)[1] // 2) * 2
+    fits = all(np.isfinite(np.ldexp(float(np.max(np.abs(x))), k)) for x in (a, b, np.array(depth_range)))
+    return int(k) if fits else 0
+
+
+def _rescaled(result: PairedStatistics, k: int) -> PairedStatistics:
+    """``result`` with every quantity in the depths' unit multiplied by ``2**k`` (exactly)."""
+
+    def s(value: float) -> float:
+        return float(np.ldexp(value, k))
+
+    return dataclasses.replace(
+        result,
+        mean_difference=s(result.mean_difference),
+        sd_difference=s(result.sd_difference),
+        ci95=(s(result.ci95[0]), s(result.ci95[1])),
+        rms=s(result.rms),
+        max_abs=s(result.max_abs),
+        depth_range=s(result.depth_range),
+        margin=s(result.margin),
+        tost_ci=(s(result.tost_ci[0]), s(result.tost_ci[1])),
+        magnitude=s(result.magnitude),
+    )
+
+
+def _paired(
+    a: np.ndarray, b: np.ndarray, depth_range: float, margin_fraction: float, alpha: float
+) -> PairedStatistics:
     from scipy import stats  # on first use: scipy.stats alone costs ~0.4 s of start-up (issue 15 item 2)
 
     d = a - b
@@ -210,24 +293,34 @@ def paired_statistics(
     margin = margin_fraction * depth_range
     rms = float(np.sqrt(np.mean(d**2)))
     max_abs = float(np.max(np.abs(d)))
+    magnitude = float(max(np.max(np.abs(a)), np.max(np.abs(b))))
 
-    if sd <= 1e-12 * max(float(np.max(np.abs(d))), np.finfo(float).tiny):
+    if sd <= 1e-12 * max(max_abs, np.finfo(float).tiny):
         # constant differences (up to rounding): scipy's tests are undefined or meaningless
         sd = 0.0
         t_res = TestResult(np.inf if mean else 0.0, 0.0 if mean else 1.0, mean == 0.0)
-        w_res = TestResult(0.0, 0.0 if mean else 1.0, mean == 0.0)
+        # every signed rank on one side: the exact test's smallest p-value, 2 / 2**n (scipy: 0.25 at n = 3)
+        w_p = min(1.0, 2.0 ** (1 - n)) if mean else 1.0
+        w_res = TestResult(0.0, w_p, bool(w_p >= alpha))
         normality_name, normality_p = "constant differences", float("nan")
         tost_p = 0.0 if abs(mean) < margin else 1.0
         dz = float("inf") * np.sign(mean) if mean else 0.0
     else:
         t = stats.ttest_rel(a, b)
         t_res = TestResult(float(t.statistic), float(t.pvalue), bool(t.pvalue >= alpha))
-        w_statistic, w_p = _wilcoxon(a, b)
+        # ties and zeros up to rounding of the depths (:data:`ROUNDING_FRACTION` of the larger of
+        # the depth range and the depths' size), so that units and offsets decide nothing
+        rounding = ROUNDING_FRACTION * max(depth_range, magnitude)  # as PairedStatistics.rounding_scale
+        w_statistic, w_p = _wilcoxon(a, b, rounding)
         w_res = TestResult(w_statistic, w_p, bool(w_p >= alpha))
         if n > 5000:
             normality_name, normality_p = "D'Agostino-Pearson", float(stats.normaltest(d).pvalue)
         else:
-            normality_name, normality_p = "Shapiro-Wilk", float(stats.shapiro(d).pvalue)
+            # scipy's Shapiro-Wilk computes in float32, whose squares underflow for depths
+            # near 1e-20 and below: test the differences scaled by a power of two (exact, and
+            # the test is scale-free) to a largest magnitude in [0.5, 1)
+            unit = np.ldexp(d, -int(np.frexp(max_abs)[1]))
+            normality_name, normality_p = "Shapiro-Wilk", float(stats.shapiro(unit).pvalue)
         lower = stats.ttest_1samp(d, -margin, alternative="greater").pvalue
         upper = stats.ttest_1samp(d, margin, alternative="less").pvalue
         tost_p = float(max(lower, upper))
@@ -255,5 +348,5 @@ def paired_statistics(
         tost_p=tost_p,
         tost_ci=(mean - t_tost * sd / np.sqrt(n), mean + t_tost * sd / np.sqrt(n)),
         equivalent=bool(tost_p < alpha),
-        magnitude=float(max(np.max(np.abs(a)), np.max(np.abs(b)))),
+        magnitude=magnitude,
     )

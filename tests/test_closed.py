@@ -268,3 +268,13 @@ def test_boundary_loop_of_a_fan():
     np.testing.assert_array_equal(boundary_loop(fan), [0, 1, 2, 3, 4])
     with pytest.raises(ValueError, match="boundary"):
         boundary_loop(TETRAHEDRON)  # closed: no boundary at all
+
+
+def test_the_closed_mesh_is_read_only():
+    from replication.surfaces.closed import closed_adt
+
+    t = 2 * np.pi * np.arange(16) / 16
+    ring = np.column_stack([np.cos(t), np.sin(t), np.zeros(16)])
+    caps = np.array([[0.1, 0.2, 0.5], [-0.3, 0.1, 0.4], [0.0, -0.2, -0.5], [0.2, 0.3, -0.3]])
+    closed = closed_adt(np.vstack([ring, caps]), split="z=0")
+    assert not closed.points.flags.writeable and not closed.triangles.flags.writeable

@@ -1,5 +1,7 @@
 """Random point clouds in a box (paper eq. 1-4)."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -97,3 +99,21 @@ def test_bad_boxes():
 def test_bad_seeds_are_input_errors(rng):
     with pytest.raises(InputError, match="seed"):
         random_cloud(5, rng=rng)
+
+
+@pytest.mark.parametrize("rng", [True, -1, 2.5, "7"])
+def test_every_stochastic_function_names_a_bad_rng(rng):
+    # numpy's default_rng takes True for seed 1; -1, 2.5 and "7" raised numpy's own errors
+    from replication.casestudy.ga import GAConfig, random_genome
+    from replication.errors import InputError
+    from replication.experiments.rank_stats import bootstrap_interval, spearman
+    from replication.surfaces import random_cloud
+
+    calls = [
+        lambda: random_cloud(5, rng=rng),
+        lambda: random_genome(GAConfig(), rng=rng),
+        lambda: bootstrap_interval([1.0, 2.0, 3.0], [1.0, 3.0, 2.0], spearman, rng=rng),
+    ]
+    for call in calls:
+        with pytest.raises(InputError, match=f"rng must be a seed .* got {re.escape(repr(rng))}"):
+            call()

@@ -101,3 +101,85 @@ def test_flat_cloud_is_a_clear_error():
 
     with pytest.raises(DegenerateInputError, match="flat along its depth axis z"):
         compare(flat_plate_cloud())
+
+
+@pytest.mark.parametrize("k", [-100, -50, 20, 100])
+def test_compare_is_the_same_at_every_power_of_two_scale(k):
+    # the NURBS inversion had an absolute tolerance: at 2**100 (or in nm) 12-14 of 30 cloud points
+    # were called "outside the NURBS footprint", at 2**-100 the starting guesses were accepted
+    from replication import compare, random_cloud
+
+    cloud = random_cloud(30, rng=4)
+    base, scaled = compare(cloud), compare(np.ldexp(cloud, k))
+    for name in ("cloud-points", "nurbs-samples"):
+        p, q = base.pairings[name], scaled.pairings[name]
+        assert (q.n, q.n_outside_nurbs) == (p.n, p.n_outside_nurbs)
+        np.testing.assert_array_equal(q.nurbs, np.ldexp(p.nurbs, k))
+        s, t = base.statistics[name], scaled.statistics[name]
+        assert (t.t_test, t.wilcoxon, t.rms_percent) == (s.t_test, s.wilcoxon, s.rms_percent)
+    assert base.pairings["cloud-points"].n_outside_nurbs == 0
+
+
+def test_an_offset_cloud_keeps_every_point_inside_the_nurbs_footprint():
+    # 4 of 30 points of a cloud 1e7 mm from the origin were excluded as outside (the grid spans them all)
+    from replication import compare, random_cloud
+
+    cloud = random_cloud(30, rng=4)
+    far = compare(cloud + [1e7, 1e7, 0]).pairings["cloud-points"]
+    assert far.n == 30 and far.n_outside_nurbs == 0
+
+
+@pytest.mark.parametrize(
+    ("call", "match"),
+    [
+        (lambda c: adt(c, tie_rtol="1e-9"), "tie_rtol must be a finite real number, got '1e-9'"),
+        (lambda c: compare(c, alpha="0.05"), "alpha must be a finite real number"),
+        (lambda c: compare(c, sample_shape=(2.5, 5)), "sample_shape must be two integers of at least 2"),
+        (lambda c: compare(c, sample_shape=(0, 5)), r"got \(0, 5\)"),  # was: no pairing, without a word
+        (lambda c: fit_nurbs(c, net="4x5"), "net must be a pair of integers, got '4x5'"),
+        (lambda c: fit_nurbs(c, net=(4,)), "net must be a pair of integers"),
+    ],
+)
+def test_settings_of_the_wrong_type_are_input_errors(call, match):
+    # were numpy's or Python's own TypeError/ValueError from deep inside
+    with pytest.raises(InputError, match=match):
+        call(random_cloud(30, rng=4))
+
+
+def test_the_arrays_of_results_are_read_only():
+    # PairedDepths, the NURBS grid and tessellation could be changed in place, putting them out of
+    # step with the statistics computed from them (Surface was read-only already)
+    cloud = random_cloud(30, rng=4)
+    result = compare(cloud)
+    nurbs = fit_nurbs(cloud, evaluator="fast")
+    arrays = [
+        getattr(p, k)
+        for p in result.pairings.values()
+        if p is not None
+        for k in ("positions", "adt", "nurbs")
+    ]
+    arrays += [nurbs.grid.u, nurbs.grid.v, nurbs.grid.depth, nurbs.grid.filled, nurbs.tessellation]
+    for a in arrays:
+        with pytest.raises(ValueError, match="read-only"):
+            a[...] = 0
+    assert cloud.flags.writeable  # the caller's cloud is not frozen
+
+
+def test_a_shifted_cloud_gives_the_same_wilcoxon_test():
+    # one difference was exactly 0.0, and 3.6e-14 after the shift: the p-value moved 0.948 -> 0.969
+    cloud = random_cloud(50, rng=3)
+    base, shifted = compare(cloud), compare(cloud + [1000.0, -500.0, 37.0])
+    assert shifted.statistics["cloud-points"].wilcoxon == base.statistics["cloud-points"].wilcoxon
+
+
+@pytest.mark.parametrize(("n", "seed"), [(12, 61), (20, 0), (20, 2), (200, 3)])
+def test_nurbs_samples_on_a_lattice_hull_edge_do_not_depend_on_offset_or_units(n, seed):
+    # samples on the hull edge at v = ymin were kept or dropped by the rounding of their
+    # evaluated position: 3 pairs, or 2 (no statistics) for the same cloud shifted by (1000, -500, 37)
+    cloud = random_cloud(n, rng=seed, step=1)
+    warnings.simplefilter("ignore", DuplicatePointsWarning)  # a lattice repeats positions
+    counts = {
+        name: compare(c).pairings["nurbs-samples"].n
+        for name, c in (("mm", cloud), ("shifted", cloud + [1000.0, -500.0, 37.0]), ("m", cloud / 1000))
+    }
+    assert len(set(counts.values())) == 1, counts

@@ -101,6 +101,7 @@ lattice_points = arrays(np.int64, st.tuples(st.integers(3, 80), st.just(2)), ele
 
 @given(lattice_points, st.sampled_from([1.0, 0.1, 1e-3, 37.5]))
 @example(np.array([[3, 9], [5, 5], [4, 7]]), 0.1)  # collinear, but not once rounded
+@example(np.array([[5, 8], [1, 6], [3, 7], [5, 5]]), 0.1)  # Qhull's hull turns back by rounding
 def test_property_lattice_clouds(points, scale):
     uv = _unique(points.astype(float) * scale)
     if uv.shape[0] < 3 or _exactly_collinear(uv):
@@ -420,3 +421,60 @@ def test_a_nearly_collinear_cloud_is_swept_from_a_round_seed(n):
     result, used = planar_delaunay(uv, backend="sweephull")
     assert used == "sweephull"
     assert_valid_delaunay(uv, result.triangles, exact="compiled")
+
+
+# ---- the exact check of Qhull's output ---------------------------------------------------------------
+
+
+def _square_with_centre():
+    uv = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0], [1.0, 0.9]])
+    triangles = np.array([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
+    return uv, triangles
+
+
+def test_the_exact_check_accepts_delaunay_and_refuses_everything_else():
+    from replication.surfaces._verify import is_delaunay
+
+    def check(uv, triangles):
+        neighbors = triangle_neighbors(triangles)
+        return is_delaunay(uv, triangles, neighbors, delaunay.hull_from_neighbors(triangles, neighbors))
+
+    uv, triangles = _square_with_centre()
+    assert check(uv, triangles)
+    assert not check(uv, triangles[:3])  # part of the hull uncovered (Euler's count)
+    assert not check(uv, triangles[:, [0, 2, 1]])  # clockwise triangles
+    # a quadrilateral (0, 0), (4, 0), (4, 1), (0, 1.2): with the diagonal 1-3, vertex 2 lies inside
+    # the circle through 0, 1, 3 (centre (2, 0.6), radius 2.088; vertex 2 at 2.040 from it)
+    quad = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 1.0], [0.0, 1.2]])
+    assert not check(quad, np.array([[0, 1, 3], [1, 2, 3]]))
+    assert check(quad, np.array([[0, 1, 2], [0, 2, 3]]))
+    # co-circular: either diagonal of a square is Delaunay (the exact in-circle test gives 0)
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]) * 0.1
+    assert check(square, np.array([[0, 1, 2], [0, 2, 3]])) and check(square, np.array([[0, 1, 3], [1, 2, 3]]))
+
+
+@pytest.mark.parametrize("seed", [12, 1, 19, 76])
+def test_a_cloud_too_stretched_for_qhull_is_refused_not_wrongly_triangulated(seed):
+    # Qhull returned triangles covering 0.99991 of the hull, with empty-circle violations
+    from replication.surfaces import adt, random_cloud
+
+    cloud = random_cloud(52, rng=seed) * np.array([10**12.57, 1, 1])
+    try:
+        surface = adt(cloud)
+    except DegenerateInputError as exc:
+        assert "not their Delaunay triangulation (checked with exact orientations" in str(exc)
+    else:
+        assert_valid_delaunay(surface.points[:, list(surface.projection_axes)], surface.triangles)
+
+
+def test_qhull_is_accepted_when_it_is_delaunay_up_to_rounding():
+    # a lattice scaled by 0.1: exactly, Qhull's edge 0-2 is not locally Delaunay (by 6e-17 of the
+    # determinant's terms); the exact check refuses it, the fallback's tolerance accepts it
+    from replication.surfaces._verify import is_delaunay
+
+    uv = np.unique(np.array([[6, 7], [3, 7], [7, 0], [7, 7], [2, 0]], float) * 0.1, axis=0)
+    triangles, used = delaunay_2d(uv, backend="scipy")
+    neighbors = triangle_neighbors(triangles)
+    hull = delaunay.hull_from_neighbors(triangles, neighbors)
+    assert used == "scipy" and not is_delaunay(uv, triangles, neighbors, hull)
+    assert is_delaunay(uv, triangles, neighbors, hull, tolerance=delaunay.QHULL_TOLERANCE)

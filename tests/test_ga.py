@@ -136,6 +136,10 @@ def test_genome_round_trip_and_errors():
     [
         ({"population": 3}, "at least 4"),
         ({"elites": 48}, "elites"),
+        # --population 4 said "elites must be in [0, population)", elites being no CLI option
+        ({"population": 4}, r"population must be larger than its elites \(the 4 fittest .*got population=4"),
+        # 1e8 filled the memory at 60 MB/s while the first population was drawn, deaf to Ctrl-C
+        ({"population": 10**8}, r"at most 100,000 \(its genomes alone take 226 GiB\)"),
         ({"mutation_rate": 1.5}, "probability"),
         ({"generations": 0}, "generations"),
         ({"box": (0, 36, 0, 30, 13, 0)}, "min < max"),

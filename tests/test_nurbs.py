@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from replication.errors import DegenerateInputError, DuplicatePointsWarning, InputError
-from replication.surfaces import random_cloud
+from replication.surfaces import adt, random_cloud
 from replication.surfaces.bspline import evaluate, evaluate_grid, invert, parameter_grid
 from replication.surfaces.nurbs import (
     NurbsPatch,
@@ -338,3 +338,33 @@ def test_a_vertex_order_that_is_no_permutation_is_an_error_not_a_crash(how):
     bad = dataclasses.replace(surface, vertex_order=order)
     with pytest.raises(InputError, match=match):
         fit_nurbs(points, evaluator="fast", tessellation=None, triangulation=bad)
+
+
+def test_a_cloud_too_small_for_the_gridding_is_an_input_error():
+    # was: ZeroDivisionError in the raster kernel at 2**-540 ("unexpected ZeroDivisionError" in the CLI)
+    from replication.surfaces import random_cloud
+    from replication.surfaces.nurbs import MIN_EXTENT
+
+    cloud = random_cloud(30, rng=4)
+    assert (
+        fit_nurbs(np.ldexp(cloud, -500), evaluator="fast").patch.net_shape
+        == fit_nurbs(cloud, evaluator="fast").patch.net_shape
+    )
+    for k in (-540, -1000):
+        with pytest.raises(InputError, match=f"is below {MIN_EXTENT:.3g}"):
+            fit_nurbs(np.ldexp(cloud, k))
+
+
+@pytest.mark.parametrize(
+    ("name", "value"), [("triangles", 10**6), ("neighbors", 10**6), ("neighbors", -2), ("hull", -1)]
+)
+def test_a_hand_altered_triangulation_is_refused_not_a_crash(name, value):
+    # a Surface changed with dataclasses.replace crashed fit_nurbs (a segmentation fault)
+    import dataclasses
+
+    cloud = random_cloud(50, rng=1)
+    surface = adt(cloud)
+    bad = np.array(getattr(surface, name))
+    bad.flat[0] = value
+    with pytest.raises(InputError, match=f"triangulation.{name} does not fit"):
+        fit_nurbs(cloud, triangulation=dataclasses.replace(surface, **{name: bad}), evaluator="fast")

@@ -84,3 +84,14 @@ def test_bad_inputs_name_the_problem():
         top_k_overlap([1, 2, 3], [1, 2, 3], 4)
     with pytest.raises(InputError, match="confidence level"):
         bootstrap_interval([1, 2, 3], [1, 2, 3], spearman, level=1.5)
+    # were IndexError, numpy's concatenate or default_rng errors
+    with pytest.raises(InputError, match="equal-length scorings of at least 2 surfaces"):
+        spearman(1.0, 2.0)
+    with pytest.raises(InputError, match="resamples must be an integer of at least 1, got 0"):
+        bootstrap_interval([1, 2, 3], [1, 3, 2], spearman, resamples=0)
+    with pytest.raises(InputError, match="chunk must be an integer of at least 1, got 0"):
+        bootstrap_interval([1, 2, 3], [1, 3, 2], spearman, chunk=0)
+    with pytest.raises(InputError, match="rng must be a seed"):
+        bootstrap_interval([1, 2, 3], [1, 3, 2], spearman, rng=-1)
+    with pytest.raises(InputError, match="two 1-D scorings"):
+        bootstrap_interval([[1, 2, 3]], [[1, 3, 2]], spearman)

@@ -193,3 +193,62 @@ def test_rounding_only_marks_deviations_at_float64_rounding():
     # depths far from zero round on their own scale: 2 ulp of 2e5 is 5.8e-11, a range of 1 notwithstanding
     far = paired_statistics(a + 2e5, a + 2e5 + rng.choice([-1, 0, 1], 50) * 2.0**-35, depth_range=1.0)
     assert far.rounding_only and far.rounding_scale == pytest.approx(2e5, rel=1e-5)
+
+
+@pytest.mark.parametrize("n", [3, 4, 5, 6, 12])
+def test_constant_differences_give_the_exact_wilcoxon_p_value(n):
+    # every signed rank on one side: p = 2 / 2**n, as scipy's exact test; it was 0 (so "different"
+    # at n = 3..5, where the test cannot reach 0.05)
+    st = paired_statistics(np.ones(n), np.zeros(n), depth_range=10.0)
+    expected = stats.wilcoxon(np.ones(n), np.zeros(n)).pvalue if n <= 13 else 2.0 ** (1 - n)
+    assert st.wilcoxon.p_value == pytest.approx(expected, rel=1e-12) == 2.0 ** (1 - n)
+    assert st.wilcoxon.similar == (2.0 ** (1 - n) >= 0.05)
+
+
+@pytest.mark.parametrize("k", [-960, -540, -401, 401, 520, 900])
+def test_statistics_are_the_same_at_every_power_of_two_scale(samples, k):
+    # the squares of the differences under- or overflowed: t = inf and "different" at 2**-540,
+    # t = 0 and an infinite RMS at 2**520, for data that give p = 0.12 at scale 1
+    a, b = samples
+    a, b = a[:8], b[:8]
+    base = paired_statistics(a, b, depth_range=10.0)
+    scaled = paired_statistics(np.ldexp(a, k), np.ldexp(b, k), depth_range=float(np.ldexp(10.0, k)))
+    for name in (
+        "t_test",
+        "wilcoxon",
+        "cohens_dz",
+        "rms_percent",
+        "max_abs_percent",
+        "tost_p",
+        "normality_p",
+    ):
+        assert getattr(scaled, name) == getattr(base, name), name
+    for name in ("mean_difference", "sd_difference", "rms", "max_abs", "margin", "depth_range", "magnitude"):
+        assert getattr(scaled, name) == np.ldexp(getattr(base, name), k), name
+    assert scaled.ci95 == tuple(np.ldexp(base.ci95, k)) and scaled.paper_verdict == base.paper_verdict
+
+
+@pytest.mark.parametrize("depth_range", [None, "1", float("nan"), True])
+def test_a_depth_range_that_is_not_a_number_is_named(depth_range):
+    with pytest.raises(InputError, match=f"depth_range must be a finite real number, got {depth_range!r}"):
+        paired_statistics([1.0, 2.0, 3.0], [1.0, 2.0, 4.0], depth_range=depth_range)
+
+
+@pytest.mark.parametrize("unit", [1e-3, 1e3, 1e-6, 25.4])
+def test_the_wilcoxon_verdict_does_not_depend_on_units(unit):
+    # depths given to 0.1 mm: their differences tie exactly (0.2 and 0.2), but computed in float
+    # they tie or not depending on the unit; in metres the verdict flipped to "different" (p 0.0488)
+    a = np.array([2.0, 8.1, 6.8, 0.7, 1.1, 10.6, 9.3, 2.1, 7.6, 11.6, 6.8, 7.8])
+    b = np.array([2.3, 7.9, 7.0, 0.5, 1.2, 10.8, 9.7, 2.5, 7.4, 12.0, 6.6, 8.2])
+    base = paired_statistics(a, b, depth_range=13.0)
+    scaled = paired_statistics(a * unit, b * unit, depth_range=13.0 * unit)
+    assert scaled.wilcoxon == base.wilcoxon and scaled.paper_verdict == base.paper_verdict
+    # the exact ties of the decimal data: scipy's test on the differences rounded to 0.1 mm
+    exact = stats.wilcoxon(np.round(a - b, 10))
+    assert base.wilcoxon.p_value == pytest.approx(exact.pvalue, rel=1e-12)
+
+
+def test_differences_that_are_all_rounding_give_no_wilcoxon_evidence():
+    a = np.linspace(1.0, 2.0, 20)
+    st = paired_statistics(a, a + np.tile([2.0**-52, -(2.0**-52)], 10), depth_range=1.0)
+    assert st.rounding_only and st.wilcoxon.p_value == 1.0 and st.wilcoxon.similar

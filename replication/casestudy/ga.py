@@ -38,6 +38,7 @@ import numpy as np
 from replication.casestudy.jet import DEFAULT_RESOLUTION, MAX_RESOLUTION, JetConfig
 from replication.casestudy.units import to_millimetres
 from replication.errors import InputError
+from replication.params import generator
 from replication.surfaces.cloud import lattice_count
 
 __all__ = [
@@ -52,6 +53,11 @@ __all__ = [
     "select_parents",
     "two_point_crossover",
 ]
+
+
+#: The largest GA population taken: beyond it the genomes and their surfaces fill the memory
+#: of a workstation before the first generation is scored (1e8 grew by 60 MB/s, unstoppable).
+MAX_POPULATION = 100_000
 
 
 @dataclass(frozen=True)
@@ -88,8 +94,16 @@ class GAConfig:
             raise InputError(
                 f"GA population must be at least 4 (two seeds and a pair), got {self.population}"
             )
-        if not 0 <= self.elites < self.population:
-            raise InputError(f"elites must be in [0, population), got elites={self.elites}")
+        if self.population > MAX_POPULATION:  # each individual is a genome and a surface in memory
+            raise InputError(
+                f"GA population must be at most {MAX_POPULATION:,} (its genomes alone take "
+                f"{self.population * self.points * 3 * 8 / 2**30:.3g} GiB), got {self.population}"
+            )
+        if not self.elites < self.population:
+            raise InputError(
+                f"GA population must be larger than its elites (the {self.elites} fittest individuals "
+                f"carried over unchanged), got population={self.population}"
+            )
         if self.points < 3:
             raise InputError(f"a surface needs at least 3 points, got points={self.points}")
         if not 0.0 <= self.mutation_rate <= 1.0:
@@ -171,7 +185,7 @@ def genome_from_points(points: np.ndarray, config: GAConfig) -> np.ndarray:
 
 def random_genome(config: GAConfig, *, rng: int | np.random.Generator | None) -> np.ndarray:
     """A genome with every gene uniform on its axis's lattice."""
-    rng = np.random.default_rng(rng)
+    rng = generator(rng)
     return rng.integers(0, genome_bounds(config) + 1)
 
 
@@ -179,7 +193,7 @@ def two_point_crossover(
     a: np.ndarray, b: np.ndarray, *, rng: int | np.random.Generator | None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Swap the genes between two distinct cut positions; returns two children."""
-    rng = np.random.default_rng(rng)
+    rng = generator(rng)
     n = a.shape[0]
     if b.shape != a.shape or n < 3:
         raise InputError(f"crossover needs two genomes of equal length >= 3, got {a.shape} and {b.shape}")
@@ -193,7 +207,7 @@ def mutate(
     genome: np.ndarray, rate: float, bounds: np.ndarray, *, rng: int | np.random.Generator | None
 ) -> np.ndarray:
     """Replace each gene with probability ``rate`` by another value of its axis's lattice."""
-    rng = np.random.default_rng(rng)
+    rng = generator(rng)
     hit = rng.random(genome.shape[0]) < rate
     out = genome.copy()
     if hit.any():
@@ -205,14 +219,14 @@ def mutate(
 
 def select_parents(size: int, *, rng: int | np.random.Generator | None) -> tuple[int, int]:
     """Random selection: two distinct individuals, uniformly."""
-    rng = np.random.default_rng(rng)
+    rng = generator(rng)
     i, j = rng.choice(size, size=2, replace=False)
     return int(i), int(j)
 
 
 def initial_population(config: GAConfig, *, rng: int | np.random.Generator | None) -> np.ndarray:
     """The flat plate, the Pelton-bucket approximation and random genomes."""
-    rng = np.random.default_rng(rng)
+    rng = generator(rng)
     from replication.casestudy.shapes import flat_plate_cloud, pelton_bucket_cloud
 
     seeds = [genome_from_points(cloud, config) for cloud in (flat_plate_cloud(), pelton_bucket_cloud())]
@@ -228,7 +242,7 @@ def next_generation(
     Fitness ties are broken by the index in the population (a stable sort), so the result
     depends only on the population, its fitness and the generator's state.
     """
-    rng = np.random.default_rng(rng)
+    rng = generator(rng)
     order = np.argsort(-np.nan_to_num(fitness, nan=-np.inf), kind="stable")
     children = [population[k].copy() for k in order[: config.elites]]
     bounds = genome_bounds(config)

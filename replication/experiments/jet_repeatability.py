@@ -21,6 +21,7 @@ import pandas as pd
 from replication.casestudy.jetconfig import JetConfig
 from replication.experiments.jet_surfaces import StudySurface
 from replication.experiments.rank_stats import spearman
+from replication.params import generator
 
 __all__ = ["SHIFTED", "noise_ceiling", "repeat_table", "shifted_jet", "shifted_surface"]
 
@@ -70,6 +71,6 @@ def noise_ceiling(
     values = np.asarray(values, dtype=np.float64)
     if values.size < 3 or not np.isfinite(sigma):
         return float("nan")
-    rng = np.random.default_rng(rng)
+    rng = generator(rng)
     noisy = values + rng.normal(0.0, sigma, size=(draws, values.size))
     return float(np.median(spearman(noisy, np.broadcast_to(values, noisy.shape))))

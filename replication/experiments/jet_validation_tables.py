@@ -14,6 +14,7 @@ import pandas as pd
 
 from replication.experiments.jet_surfaces import FAMILIES
 from replication.experiments.rank_stats import rank_agreement, spearman, top_k_overlap
+from replication.params import generator
 
 __all__ = [
     "noise_table",
@@ -49,7 +50,7 @@ def agreement_row(
     ``top_k`` counts how many of the k best surfaces by ``scoring`` are among the k best by
     ``reference``; ``top_k_chance`` is its expectation for a random ranking, k^2 / n.
     """
-    rng = np.random.default_rng(rng)
+    rng = generator(rng)
     reference = np.asarray(reference, dtype=np.float64)
     scoring = np.asarray(scoring, dtype=np.float64)
     n = reference.size
@@ -78,7 +79,7 @@ def agreement_table(
 
     Surfaces whose simulation failed are left out (and counted in the report).
     """
-    rng = np.random.default_rng(rng)
+    rng = generator(rng)
     ok = table[table["sph_status"] == "ok"]
     scopes: list[tuple[str, pd.DataFrame]] = [("all surfaces", ok)]
     scopes += [(f"family: {f}", ok[ok["family"] == f]) for f in FAMILIES if (ok["family"] == f).any()]
@@ -109,7 +110,7 @@ def convergence_table(
     the finest radius, the largest and median change of force / rho Q V against the finest,
     and the Spearman of the thin-sheet model against SPH at that radius.
     """
-    rng = np.random.default_rng(rng)
+    rng = generator(rng)
     wide = resolution.pivot_table(index="surface", columns="radius_mm", values=SPH_COLUMN)
     if wide.empty:
         return pd.DataFrame(columns=["scope", "n", "radius_mm", "spearman", "max_change"])
@@ -164,7 +165,7 @@ def noise_table(
     repeated (shifted) runs over sqrt(2) (the root mean square, so that a change's sign does
     not matter). ``spread`` is the standard deviation of the SPH scores themselves.
     """
-    rng = np.random.default_rng(rng)
+    rng = generator(rng)
     from replication.experiments.jet_repeatability import noise_ceiling
 
     changes = repeatability.loc[repeatability["status_shifted"] == "ok", "sph_change"].dropna().to_numpy()

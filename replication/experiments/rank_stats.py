@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from replication.errors import InputError
+from replication.params import count, generator, real
 
 __all__ = [
     "RankAgreement",
@@ -28,7 +29,7 @@ __all__ = [
 def _pairs(x: ArrayLike, y: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     a = np.asarray(x, dtype=np.float64)
     b = np.asarray(y, dtype=np.float64)
-    if a.shape != b.shape or a.shape[-1] < 2:
+    if a.shape != b.shape or a.ndim == 0 or a.shape[-1] < 2:
         raise InputError(
             f"need two equal-length scorings of at least 2 surfaces, got {a.shape} and {b.shape}"
         )
@@ -80,9 +81,17 @@ def bootstrap_interval(
     Resamples in which the statistic is undefined (a constant scoring) are left out.
     """
     a, b = _pairs(x, y)
-    if not 0 < level < 1:
+    if a.ndim != 1:
+        raise InputError(f"bootstrap_interval resamples two 1-D scorings, got shape {a.shape}")
+    if not 0 < real(level, "level") < 1:
         raise InputError(f"confidence level must lie in (0, 1), got {level}")
-    rng = np.random.default_rng(rng)
+    resamples, chunk = count(resamples, "resamples"), count(chunk, "chunk")
+    try:
+        rng = generator(rng)
+    except (TypeError, ValueError) as exc:
+        raise InputError(
+            f"rng must be a seed (a non-negative integer), a Generator or None, got {rng!r}"
+        ) from exc
     n = a.size
     values = []
     for start in range(0, resamples, chunk):
@@ -133,7 +142,7 @@ def rank_agreement(
     Paper section 6: what the GA needs from its fitness is the ranking of surfaces.
     """
     a, b = _pairs(x, y)
-    rng = np.random.default_rng(rng)
+    rng = generator(rng)
     s_lo, s_hi = bootstrap_interval(a, b, spearman, resamples=resamples, rng=rng)
     k_lo, k_hi = bootstrap_interval(a, b, kendall_tau_b, resamples=resamples, rng=rng)
     return RankAgreement(a.size, spearman(a, b), s_lo, s_hi, kendall_tau_b(a, b), k_lo, k_hi)

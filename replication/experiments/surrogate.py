@@ -23,6 +23,7 @@ import pandas as pd
 
 from replication.errors import InputError
 from replication.experiments.jet_validation_tables import SPH_COLUMN, agreement_row
+from replication.params import generator
 
 __all__ = [
     "CALIBRATION",
@@ -51,7 +52,7 @@ def split_halves(table: pd.DataFrame, *, rng: int | np.random.Generator | None) 
     pandas.Series
         ``CALIBRATION`` or ``HELD_OUT``, indexed by surface name.
     """
-    rng = np.random.default_rng(rng)
+    rng = generator(rng)
     half = pd.Series(CALIBRATION, index=table["surface"].to_numpy(), dtype=object)
     up = True
     for _, group in table.groupby("stratum", sort=True):
@@ -145,7 +146,7 @@ def judge(
 
     Only surfaces SPH scored count. ``column`` holds the scoring (force / rho Q V).
     """
-    rng = np.random.default_rng(rng)
+    rng = generator(rng)
     ok = table[table["sph_status"] == "ok"]
     rows = []
     for scope, part in (

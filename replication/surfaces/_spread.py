@@ -72,7 +72,7 @@ def validated_cloud(points: ArrayLike) -> tuple[np.ndarray, tuple[float, float, 
     an :class:`~replication.errors.InputError` when the spreads overflow float64.
     """
     cloud = None
-    if isinstance(points, np.ndarray) and points.dtype.kind in "fiub":
+    if type(points) is np.ndarray and points.dtype.kind in "fiub":  # subclasses (masked) take as_cloud
         cloud = np.asarray(points, dtype=np.float64)
     if cloud is None or cloud.ndim != 2 or cloud.shape[1] != 3 or cloud.shape[0] == 0:
         cloud = as_cloud(points)  # the checks, with their messages

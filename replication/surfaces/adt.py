@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from replication.errors import DegenerateInputError, InputError
+from replication.params import real
 from replication.surfaces._spread import validated_cloud
 from replication.surfaces.cloud import underflow
 from replication.surfaces.delaunay import Backend, planar_delaunay
@@ -106,7 +107,7 @@ def select_depth_axis(
         raise InputError(f"spreads must be 3 finite non-negative numbers, got {spreads!r}")
     if rule not in ("min", "max"):
         raise InputError(f"depth rule must be 'min' or 'max', got {rule!r}")
-    if not tie_rtol >= 0:
+    if not real(tie_rtol, "tie_rtol") >= 0:
         raise InputError(f"tie tolerance must be non-negative, got {tie_rtol=}")
     extreme = min(v) if rule == "min" else max(v)
     scale = tie_rtol * max(v)
@@ -326,7 +327,7 @@ def adt(
         depth_axis=axis,
         projection_axes=(u_axis, v_axis),
         spreads=spreads,
-        depth_rule=depth,
+        depth_rule=str(depth),  # a numpy string (np.str_) is stored as the Python str it equals
         duplicate_policy=duplicates,
         vertex_of_input=vertex_of_input,
         backend=used,

@@ -91,8 +91,10 @@ def invert(
     axes : (int, int)
         The two coordinate axes of the projection plane (the NURBS is a height field over it).
     tol : float
-        Absolute tolerance on both coordinates (default 1e-9) for a target to count as
-        reached; iterations continue to a few ulps when they can.
+        Tolerance on both coordinates for a target to count as reached, relative to the
+        footprint's extent (default 1e-9), and never below the rounding of the coordinates
+        themselves (64 ulps of the largest): the result does not depend on the cloud's units or
+        offset. Iterations continue to a few ulps when they can.
     max_iter : int
         Newton iterations at most.
     seed_shape : (int, int), optional
@@ -123,9 +125,13 @@ def invert(
     point = evaluate(patch, params)
     residual = point[:, [a, b]] - targets
     norm = np.abs(residual).max(axis=1)
-    # polish beyond ``tol`` to a few ulps of the coordinates (Newton converges quadratically,
+    eps = np.finfo(float).eps
+    magnitude = float(np.abs(sampled).max())
+    extent = float(np.ptp(sampled, axis=0).max())
+    reached = max(tol * extent, 64 * eps * magnitude)
+    # polish beyond ``reached`` to a few ulps of the coordinates (Newton converges quadratically,
     # so this costs an iteration or two) so that depths are exact to rounding
-    polish = min(tol, 8 * np.finfo(float).eps * max(1.0, float(np.abs(sampled).max())))
+    polish = min(reached, 8 * eps * magnitude)
     active = norm > polish
     iterations = 0
     while active.any() and iterations < max_iter:
@@ -166,4 +172,6 @@ def invert(
         # stop on convergence, or when no step helps (the target is off the footprint)
         active[idx[~improved]] = False
         active &= norm > polish
-    return Inversion(params=params, points=point, residual=norm, converged=norm <= tol, iterations=iterations)
+    return Inversion(
+        params=params, points=point, residual=norm, converged=norm <= reached, iterations=iterations
+    )

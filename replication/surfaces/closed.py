@@ -51,7 +51,15 @@ from replication.surfaces._closing import (
     mesh_defect,
     rim_and_inner,
 )
-from replication.surfaces.adt import AXES, Surface, adt, parse_axis, projection_axes, triangle_polydata
+from replication.surfaces.adt import (
+    AXES,
+    Surface,
+    _readonly,
+    adt,
+    parse_axis,
+    projection_axes,
+    triangle_polydata,
+)
 from replication.surfaces.cloud import as_cloud
 from replication.surfaces.delaunay import Backend
 from replication.surfaces.duplicates import DuplicatePolicy
@@ -319,8 +327,8 @@ def closed_adt(
     # each half is a triangulated disk: the mesh can go wrong only at the rims, checked there
     reason = reason or mesh_defect(triangles, points_out, near=rims)
     return ClosedSurface(
-        points=points_out,
-        triangles=triangles,
+        points=_readonly(points_out),
+        triangles=_readonly(triangles),
         split=plane,
         upper=upper,
         lower=lower,

@@ -140,13 +140,11 @@ def random_cloud(
 
 
 def make_rng(rng: RNGLike) -> np.random.Generator:
-    """``np.random.default_rng(rng)``, with an InputError naming a bad seed."""
-    if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool) and rng < 0:
-        raise InputError(f"a seed must be a non-negative integer, got {rng}")
-    try:
-        return np.random.default_rng(rng)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"not a seed or random generator: {rng!r} ({exc})") from exc
+    """``np.random.default_rng(rng)``, with an InputError naming a bad seed
+    (:func:`replication.params.generator`)."""
+    from replication.params import generator
+
+    return generator(rng)
 
 
 def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
@@ -155,12 +153,23 @@ def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
     Raises
     ------
     InputError
-        Wrong shape, non-numeric values, or NaN/infinite coordinates (the rows are named).
+        Wrong shape, non-numeric or complex values, or NaN/infinite coordinates (the rows are
+        named).
     """
+    if isinstance(points, np.ma.MaskedArray) and np.ma.is_masked(points):
+        raise InputError(
+            f"{name} has {int(np.ma.count_masked(points))} masked value(s): numpy would use the values "
+            "hidden under the mask; drop those points or fill them first"
+        )
     try:
-        arr = np.asarray(points, dtype=np.float64)
+        complex_values = (points if isinstance(points, np.ndarray) else np.asarray(points)).dtype.kind == "c"
+        arr = None if complex_values else np.asarray(points, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise InputError(f"{name} must be numeric, got {type(points).__name__}: {exc}") from exc
+    if arr is None:
+        raise InputError(
+            f"{name} must be real numbers, got complex values (numpy would drop the imaginary parts)"
+        )
     if arr.ndim != 2 or arr.shape[1] != 3:
         raise InputError(f"{name} must have shape (n, 3), got shape {arr.shape}")
     if arr.shape[0] == 0:

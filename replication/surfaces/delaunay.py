@@ -93,6 +93,37 @@ def _too_few_or_collinear(points: np.ndarray, axes: tuple[int, int]) -> Degenera
     )
 
 
+#: Qhull's triangles are Delaunay up to its rounding: on nearly co-circular points (a lattice
+#: scaled by 0.1) a vertex may lie inside a neighbour's circumcircle by about 1e-16 of the
+#: in-circle determinant's terms, and on nearly collinear hull points the boundary may turn
+#: the wrong way by as little. Its gross failures, on clouds about 1e12 times longer than
+#: wide, reach 0.01-0.3; anything beyond this fraction is refused.
+QHULL_TOLERANCE = 1e-12
+
+
+def _check_qhull(uv: np.ndarray, triangles: np.ndarray, neighbors: np.ndarray) -> None:
+    """Refuse Qhull's floating-point output unless it is checked (:mod:`._verify`): a tiling of
+    the convex hull (exact orientations) that is Delaunay up to :data:`QHULL_TOLERANCE`.
+
+    On clouds about 1e12 times longer than wide Qhull returned triangles that left part of
+    the hull uncovered and broke the empty-circle property, without an error.
+    """
+    from replication.surfaces._verify import is_delaunay
+
+    try:
+        hull = hull_from_neighbors(triangles, neighbors)
+        valid = is_delaunay(uv, triangles, neighbors, hull, tolerance=QHULL_TOLERANCE)
+    except (KeyError, IndexError):  # no single boundary ring: not a triangulated disk
+        valid = False
+    if not valid:
+        spans = np.ptp(uv, axis=0)
+        raise DegenerateInputError(
+            f"Qhull's triangulation of the {uv.shape[0]} projected points is not their Delaunay "
+            "triangulation (checked with exact orientations and in-circle tests): the projection spans "
+            f"{spans[0]:.3g} by {spans[1]:.3g}, an aspect at which float64 rounding defeats both backends"
+        )
+
+
 def _qhull(points: np.ndarray, axes: tuple[int, int]):
     """The scipy backend in the shape of :class:`._triangulate.Triangulation`."""
     from replication.surfaces._triangulate import Triangulation
@@ -102,11 +133,13 @@ def _qhull(points: np.ndarray, axes: tuple[int, int]):
     group, first = group_positions(points[:, axes[0]], points[:, axes[1]])
     if first.shape[0] < 3:
         raise _too_few_or_collinear(points, axes)
-    local = _scipy(points[first][:, list(axes)])
+    uv = points[first][:, list(axes)]
+    local = _scipy(uv)
     counts = np.bincount(local.ravel(), minlength=first.shape[0])
     if np.any(counts == 0):
         raise _unused_points_error(first[counts == 0], "scipy")
     neighbors = triangle_neighbors(local).astype(np.int32)
+    _check_qhull(uv, local, neighbors)
     triangles = first[local].astype(np.int32)
     duplicates = np.flatnonzero(first[group] != np.arange(group.shape[0])).astype(np.int32)
     return Triangulation(

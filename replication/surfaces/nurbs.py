@@ -46,8 +46,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from replication.errors import DegenerateInputError, InputError
+from replication.params import count_pair
 from replication.surfaces._spread import validated_cloud
-from replication.surfaces.adt import AXES, DEFAULT_TIE_RTOL, Surface, adt
+from replication.surfaces.adt import AXES, DEFAULT_TIE_RTOL, Surface, _readonly, adt
 from replication.surfaces.bspline import evaluate_grid
 from replication.surfaces.delaunay import Backend
 from replication.surfaces.duplicates import DuplicatePolicy
@@ -188,7 +189,7 @@ def grid_depths(surface: Surface, shape: tuple[int, int]) -> Grid:
         queries = np.column_stack([u[rows], v[cols]])
         nearest = _fill_nearest(xy, triangles, surface.neighbors, queries, start, order)
         values[rows, cols] = depth[nearest]
-    return Grid(u=u, v=v, depth=values, filled=outside)
+    return Grid(u=_readonly(u), v=_readonly(v), depth=_readonly(values), filled=_readonly(outside))
 
 
 def _start_triangles(owner: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
@@ -260,6 +261,39 @@ class NurbsSurface:
         return self.tessellation.reshape(-1, 3), triangles
 
 
+def _check_triangulation(surface: Surface) -> None:
+    """Refuse a given Surface whose index arrays the compiled gridding would read out of bounds.
+
+    ``adt`` builds them consistent; one changed by hand (``dataclasses.replace``) crashed the
+    process (a segmentation fault). A few passes over the indices: about 1 % of a fit.
+    """
+    points = np.asarray(surface.points)
+    n, m = points.shape[0], np.shape(surface.triangles)[0]
+    if points.ndim != 2 or points.shape[1] != 3 or not np.all(np.isfinite(points)):
+        raise InputError(f"triangulation.points must be finite, of shape (n, 3), got shape {points.shape}")
+    for name, lowest, highest, shape in (
+        ("triangles", 0, n - 1, (m, 3)),
+        ("neighbors", -1, m - 1, (m, 3)),
+        ("hull", 0, n - 1, None),
+    ):
+        a = np.asarray(getattr(surface, name))
+        fits = a.dtype.kind in "iu" and a.size > 0 and (a.shape == shape if shape else a.ndim == 1)
+        if not fits or int(a.min()) < lowest or int(a.max()) > highest:
+            got = (
+                f"shape {a.shape}, dtype {a.dtype}" if not fits else f"values {int(a.min())}..{int(a.max())}"
+            )
+            raise InputError(
+                f"triangulation.{name} does not fit the surface's {n} vertices and {m} triangles ({got}): "
+                "it was not built by adt() for this cloud"
+            )
+
+
+#: The smallest extent of the projected cloud the NURBS gridding takes: its barycentric
+#: interpolation multiplies two lengths, and below 2**-511 their product underflows (a cloud
+#: scaled by 2**-540 divided by zero in the raster).
+MIN_EXTENT = 2.0**-500
+
+
 def fit_nurbs(
     points: ArrayLike,
     *,
@@ -301,7 +335,8 @@ def fit_nurbs(
     Raises
     ------
     InputError
-        Too few points for the degree, a bad net, non-finite coordinates, bad options.
+        Too few points for the degree, a bad net, non-finite coordinates, bad options, a
+        projected extent below :data:`MIN_EXTENT`.
     DegenerateInputError
         A cloud with zero extent along a projection axis (no rectangular grid exists).
 
@@ -318,6 +353,7 @@ def fit_nurbs(
         n = validated_cloud(points)[0].shape[0]
         if triangulation.n_input != n:
             raise InputError(f"the triangulation is of {triangulation.n_input} points, the cloud has {n}")
+        _check_triangulation(triangulation)
         surface = triangulation
     # the extremes of the vertices are hull vertices: the same numbers as over every vertex,
     # without four passes over a million-point cloud's strided columns (8 ms)
@@ -325,10 +361,16 @@ def fit_nurbs(
     extent = np.array([np.max(boundary[:, a]) - np.min(boundary[:, a]) for a in surface.projection_axes])
     if np.any(extent <= 0):
         raise DegenerateInputError(f"the projected cloud has zero extent {extent.tolist()}: no grid spans it")
+    if np.any(extent < MIN_EXTENT):
+        raise InputError(
+            f"the projected cloud's extent ({extent[0]:.3g} by {extent[1]:.3g}) is below {MIN_EXTENT:.3g} "
+            "(2**-500): the gridding's interpolation multiplies two such lengths, which underflows "
+            "float64; rescale the cloud (ADT itself triangulates it)"
+        )
     if net is None:
         shape = control_net_shape(surface.n_input, float(extent[0] / extent[1]), degree)
     else:
-        m_u, m_v = (int(m) for m in net)
+        m_u, m_v = count_pair(net, "net")
         if min(m_u, m_v) < degree + 1:
             raise InputError(
                 f"a {m_u} x {m_v} net cannot carry degree {degree}: need {degree + 1} per direction"
@@ -351,9 +393,7 @@ def fit_nurbs(
     )
     evaluated = None
     if tessellation is not None:
-        s_u, s_v = (int(s) for s in tessellation)
-        if min(s_u, s_v) < 2:
-            raise InputError(f"tessellation needs at least 2 samples per direction, got {tessellation}")
+        s_u, s_v = count_pair(tessellation, "tessellation (samples per direction)", 2)
         if evaluator == "geomdl":
             geo = patch.to_geomdl()
             geo.sample_size_u = s_u
@@ -361,6 +401,7 @@ def fit_nurbs(
             evaluated = np.asarray(geo.evalpts, dtype=np.float64).reshape(s_u, s_v, 3)
         else:
             evaluated = evaluate_grid(patch, (s_u, s_v))
+        evaluated = _readonly(evaluated)
     return NurbsSurface(
         patch=patch,
         depth_axis=surface.depth_axis,
