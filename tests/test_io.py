@@ -97,6 +97,24 @@ def test_vtp_compressed_round_trip(surface, tmp_path):
     np.testing.assert_array_equal(read_surface(tmp_path / "zip.vtp")[0], surface.points)
 
 
+@pytest.mark.parametrize("suffix", ["vtk", "vtp"])
+def test_surface_files_with_names_that_are_not_utf8(surface, tmp_path, suffix, monkeypatch):
+    # VTK takes file names as UTF-8 text; a byte name such as b"a\xff.vtp" (valid on POSIX)
+    # raised UnicodeEncodeError. The file must be the one written under a plain name.
+    scratch = tmp_path.parent / f"{tmp_path.name}-scratch"
+    scratch.mkdir()
+    monkeypatch.setattr("tempfile.tempdir", str(scratch))
+    odd = Path(os.fsdecode(bytes(tmp_path) + b"/a\xff." + suffix.encode()))
+    plain = tmp_path / f"plain.{suffix}"
+    assert write_surface(surface, odd) == write_surface(surface, plain)
+    assert odd.read_bytes() == plain.read_bytes()
+    points, triangles = read_surface(odd)
+    np.testing.assert_array_equal(points, surface.points)
+    np.testing.assert_array_equal(triangles, surface.triangles)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([odd.name, plain.name])
+    assert list(scratch.iterdir()) == []  # the staged copies are removed
+
+
 def test_legacy_vtk_is_compact_on_lattices_and_exact_everywhere(surface, tmp_path):
     """Smaller than VTK's own ASCII on lattice clouds; exact where VTK's ASCII is lossy."""
     cloud = np.unique(np.random.default_rng(2).integers(0, 30, (60, 3)), axis=0).astype(float)
@@ -182,12 +200,68 @@ def test_load_text_clouds(tmp_path, name, text):
     np.testing.assert_array_equal(load_cloud(tmp_path / name), CLOUD)
 
 
-@pytest.mark.parametrize("name", ["c.csv", "c.txt", "c.xyz", "c.npy", "C.CSV"])
+@pytest.mark.parametrize("name", ["c.csv", "c.txt", "c.xyz", "c.npy", "C.CSV", "C.NPY", "c.Txt"])
 def test_save_load_round_trip(tmp_path, name):
+    # the first point (0, 1, 2) among non-integer points: .txt/.xyz dropped it as pandas' header;
+    # "C.NPY" was a 0-byte file (np.save added ".npy" to the temporary name) reported as written
     cloud = np.random.default_rng(1).normal(size=(40, 3)) * 1e3
+    cloud[0] = [0, 1, 2]
+    (tmp_path / name).write_text("an older file of the same name")
     size = save_cloud(cloud, tmp_path / name)
-    assert size == (tmp_path / name).stat().st_size
+    assert size == (tmp_path / name).stat().st_size > 40 * 3 * 4
+    assert [p.name for p in tmp_path.iterdir()] == [name]
     np.testing.assert_array_equal(load_cloud(tmp_path / name), cloud)
+
+
+def test_a_pandas_header_of_column_numbers_in_a_whitespace_file_is_still_recognised(tmp_path):
+    # save_cloud's own .txt marks its first line as a point; pandas' to_csv(sep=" ") does not
+    from replication.errors import CloudFileWarning
+
+    (tmp_path / "p.txt").write_text("0 1 2\n1.5 2 3\n4 5.25 6\n7 8 1.5\n")
+    with pytest.warns(CloudFileWarning, match="looks like pandas' header of column numbers and was skipped"):
+        assert load_cloud(tmp_path / "p.txt").shape == (3, 3)
+    save_cloud(np.array([[0, 1, 2], [1.5, 2, 3], [4, 5.25, 6]]), tmp_path / "ours.txt")
+    assert (tmp_path / "ours.txt").read_text().startswith("# x y z\n0 1 2\n")
+    assert load_cloud(tmp_path / "ours.txt").shape == (3, 3)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    hnp.arrays(
+        np.float64,
+        hst.tuples(hst.integers(1, 12), hst.just(3)),
+        elements=hst.floats(allow_nan=False, allow_infinity=False, allow_subnormal=True),
+    ),
+    hst.sampled_from([".csv", ".txt", ".xyz", ".npy"]),
+)
+def test_every_cloud_format_round_trips_exactly(cloud, suffix):
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as scratch:
+        path = Path(scratch) / f"c{suffix}"
+        save_cloud(cloud, path)
+        np.testing.assert_array_equal(load_cloud(path), cloud + 0.0)  # -0.0 may read back as 0.0
+
+
+@pytest.mark.parametrize(
+    "header",
+    ["z,x,y", "Z,X,Y", "z [mm],x [mm],y [mm]", '"z","x","y"', "z_mm,x_mm,y_mm"],
+)
+def test_a_header_naming_the_axes_says_which_column_is_which(tmp_path, header):
+    # was: the header was skipped and the columns taken as x, y, z: another cloud, another depth axis
+    from replication.errors import CloudFileWarning
+
+    rows = "".join(f"{z},{x},{y}\n" for x, y, z in CLOUD)
+    (tmp_path / "zxy.csv").write_text(f"{header}\n{rows}")
+    with pytest.warns(CloudFileWarning, match=r"names the columns, so they were read as .* \(x, y, z\)"):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "zxy.csv"), CLOUD)
+    (tmp_path / "zxy.txt").write_text("Z X Y\n" + rows.replace(",", " "))
+    with pytest.warns(CloudFileWarning, match="read as X, Y, Z"):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "zxy.txt"), CLOUD)
+    (tmp_path / "labels.csv").write_text(
+        "east,north,height\n" + "".join(f"{x},{y},{z}\n" for x, y, z in CLOUD)
+    )
+    np.testing.assert_array_equal(load_cloud(tmp_path / "labels.csv"), CLOUD)  # other names: file order
 
 
 @pytest.mark.parametrize(
@@ -284,3 +358,300 @@ def test_replacing_a_file_keeps_its_permissions(surface, tmp_path):
     target.chmod(0o600)
     write_vtk(surface, target)
     assert target.stat().st_mode & 0o777 == 0o600
+
+
+# ---- report data (CSV) ----------------------------------------------------------------------------
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    hnp.arrays(np.float64, hst.integers(1, 20), elements=hst.floats(allow_nan=False, allow_infinity=False))
+)
+def test_report_csv_round_trip_is_exact(values):
+    import tempfile
+
+    import pandas as pd
+
+    from replication.report.store import read_csv, write_csv
+
+    frame = pd.DataFrame({"name": [f"s{k}" for k in range(values.size)], "value": values})
+    with tempfile.TemporaryDirectory() as scratch:
+        path = Path(scratch) / "t.csv"
+        write_csv(frame, path)
+        back = read_csv(path, columns=("name", "value"))
+    assert list(back["name"]) == list(frame["name"])
+    np.testing.assert_array_equal(back["value"].to_numpy(np.float64), values)  # "0" reads as int: equal
+
+
+@pytest.mark.parametrize(
+    ("cut", "match"),
+    [
+        (lambda text: text[: text.rindex(",") + 3], "cut short"),  # in the last row's last field
+        (lambda text: text[: text.rindex(",")] + "\n", "line 4 has 1 fields, the header 2"),  # a field lost
+    ],
+)
+def test_report_csv_cut_short_is_refused(tmp_path, cut, match):
+    # pandas alone read the half row with NaN: a report from damaged data without a word
+    import pandas as pd
+
+    from replication.errors import ReportDataError
+    from replication.report.store import read_csv, write_csv
+
+    path = tmp_path / "t.csv"
+    write_csv(pd.DataFrame({"name": ["a", "b", "c"], "value": [1.5, 2.25, 3.125]}), path)
+    path.write_text(cut(path.read_text()))
+    with pytest.raises(ReportDataError, match=match):
+        read_csv(path)
+
+
+# ---- outputs that are not plain files -------------------------------------------------------------
+
+
+def test_an_output_through_a_symbolic_link_writes_its_target_and_keeps_the_link(surface, tmp_path):
+    # the rename replaced the link itself with a regular file
+    (tmp_path / "real.vtk").write_text("old")
+    (tmp_path / "link.vtk").symlink_to("real.vtk")
+    size = write_vtk(surface, tmp_path / "link.vtk")
+    assert (tmp_path / "link.vtk").is_symlink() and (tmp_path / "real.vtk").stat().st_size == size
+
+
+def test_a_symbolic_link_loop_is_an_output_error(surface, tmp_path):
+    # was: "unexpected RuntimeError: Symlink loop" from the input/output comparison
+    (tmp_path / "a.vtk").symlink_to("b.vtk")
+    (tmp_path / "b.vtk").symlink_to("a.vtk")
+    with pytest.raises(OutputError, match="cannot follow the symbolic link"):
+        write_vtk(surface, tmp_path / "a.vtk")
+    from replication.io.paths import check_distinct
+
+    with pytest.raises(OutputError, match="a.vtk: cannot follow the symbolic link"):
+        check_distinct([("-o", tmp_path / "a.vtk")], [("INPUT", tmp_path / "in.csv")])
+    assert (tmp_path / "a.vtk").is_symlink() and (tmp_path / "b.vtk").is_symlink()
+
+
+def test_a_fifo_is_not_replaced_by_an_output(surface, tmp_path):
+    # the rename replaced a named pipe (or, for root, a device node such as /dev/null) with a file
+    for name in ("pipe.vtk", "pipe.vtp", "pipe.csv"):
+        os.mkfifo(tmp_path / name)
+    with pytest.raises(OutputError, match="exists and is not a regular file"):
+        write_vtk(surface, tmp_path / "pipe.vtk")
+    with pytest.raises(OutputError, match="exists and is not a regular file"):
+        write_vtp(surface, tmp_path / "pipe.vtp")
+    with pytest.raises(OutputError, match="exists and is not a regular file"):
+        save_cloud(CLOUD, tmp_path / "pipe.csv")
+    assert all(path.is_fifo() for path in tmp_path.iterdir()) and len(list(tmp_path.iterdir())) == 3
+
+
+# ---- report data sets ------------------------------------------------------------------------------
+
+
+def _files(directory):
+    return {str(p.relative_to(directory)): p.read_bytes() for p in directory.rglob("*") if p.is_file()}
+
+
+def test_a_data_set_is_published_whole_with_its_provenance_last(tmp_path, monkeypatch):
+    from replication.report import store
+
+    data = tmp_path / "data"
+    with store.data_set(data, "e_provenance.json", stale=["e_old.csv"]) as staged:
+        (staged / "e_a.csv").write_text("a1\n")
+        (staged / "e_old.csv").write_text("old\n")
+        (staged / "e_provenance.json").write_text("{}\n")
+    assert _files(data) == {"e_a.csv": b"a1\n", "e_old.csv": b"old\n", "e_provenance.json": b"{}\n"}
+    replaced = []
+    monkeypatch.setattr(store.os, "replace", lambda a, b: (replaced.append(Path(b).name), os.rename(a, b)))
+    with store.data_set(data, "e_provenance.json", stale=["e_old.csv"]) as staged:
+        (staged / "sub").mkdir()
+        (staged / "sub" / "m.vtk").write_text("m\n")
+        (staged / "e_a.csv").write_text("a2\n")
+        (staged / "e_provenance.json").write_text('{"run": 2}\n')
+    assert replaced[-1] == "e_provenance.json"
+    assert _files(data) == {"e_a.csv": b"a2\n", "sub/m.vtk": b"m\n", "e_provenance.json": b'{"run": 2}\n'}
+
+
+@pytest.mark.parametrize("stop", [KeyboardInterrupt, OSError])
+def test_a_data_set_stopped_while_it_is_written_leaves_the_old_one_whole(tmp_path, stop):
+    # was: files written one by one, so Ctrl-C before the provenance left one run's tables under
+    # another run's provenance, and `replication report` rendered the mixture without a word
+    from replication.report.store import data_set
+
+    data = tmp_path / "data"
+    with data_set(data, "e_provenance.json") as staged:
+        (staged / "e_a.csv").write_text("run 1\n")
+        (staged / "e_provenance.json").write_text("run 1\n")
+    before = _files(data)
+    with pytest.raises(stop), data_set(data, "e_provenance.json") as staged:
+        (staged / "e_a.csv").write_text("run 2\n")
+        raise stop
+    assert _files(data) == before and [p.name for p in data.iterdir()] == sorted(before)
+
+
+def test_a_ctrl_c_while_a_data_set_is_published_is_held_until_it_is_whole(tmp_path, monkeypatch):
+    import signal
+
+    from replication.report import store
+
+    data = tmp_path / "data"
+    real_replace = os.replace
+
+    def replace_then_ctrl_c(a, b):
+        real_replace(a, b)
+        os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C after the first file
+
+    monkeypatch.setattr(store.os, "replace", replace_then_ctrl_c)
+    with pytest.raises(KeyboardInterrupt), store.data_set(data, "e_provenance.json") as staged:
+        for name in ("e_a.csv", "e_b.csv", "e_provenance.json"):
+            (staged / name).write_text("new\n")
+    assert sorted(_files(data)) == ["e_a.csv", "e_b.csv", "e_provenance.json"]  # published whole
+
+
+def test_a_data_set_without_its_provenance_is_refused(tmp_path):
+    from replication.report.store import data_set
+
+    with pytest.raises(ValueError, match="no provenance e_provenance.json"):
+        with data_set(tmp_path / "data", "e_provenance.json") as staged:
+            (staged / "e_a.csv").write_text("x\n")
+    assert list((tmp_path / "data").iterdir()) == []
+
+
+# ---- messages that named the wrong problem ---------------------------------------------------------
+
+
+def test_surface_and_cloud_file_names_that_are_not_files(surface, tmp_path):
+    (tmp_path / "d.vtk").mkdir()
+    with pytest.raises(CloudFileError, match="expected a surface file, got a directory: .*d.vtk"):
+        read_surface(tmp_path / "d.vtk")  # was: "surface file not found"
+    with pytest.raises(CloudFileError, match="the file name is empty"):
+        load_cloud("")  # was: "got a directory: ."
+    with pytest.raises(CloudFileError, match="the file name is empty"):
+        read_surface("")
+
+
+def test_a_legacy_vtk_cut_short_names_the_cut(surface, tmp_path):
+    # was: "the surface must consist of triangles only" for a file cut in its points
+    text = legacy_vtk_text(surface.points, surface.triangles)
+    (tmp_path / "cut.vtk").write_text(text[: text.index("POLYGONS")])
+    with pytest.raises(CloudFileError, match="points but no triangles in the file"):
+        read_surface(tmp_path / "cut.vtk")
+    (tmp_path / "cut2.vtk").write_text(text[:-20])
+    with pytest.raises(CloudFileError, match="not a readable VTK surface"):
+        read_surface(tmp_path / "cut2.vtk")
+
+
+def test_a_cloud_of_complex_numbers_is_refused(tmp_path):
+    # was: accepted with numpy's warning that the imaginary parts are discarded
+    np.save(tmp_path / "c.npy", CLOUD + 1j)
+    with pytest.raises(CloudFileError, match="must be real numbers, got complex values"):
+        load_cloud(tmp_path / "c.npy")
+    with pytest.raises(InputError, match="must be real numbers"):
+        adt((CLOUD + 0j).tolist())
+    with pytest.raises(
+        InputError, match="points must be numeric, got list"
+    ):  # ragged: not numpy's ValueError
+        adt([[0, 0, 0], [1, 1], [2, 2, 2]])
+
+
+def test_a_data_set_keeps_permissions_and_links_and_removes_stale_files(tmp_path):
+    import subprocess
+    import sys
+
+    from replication.report.store import data_set
+
+    data = tmp_path / "data"
+    with data_set(data, "e_provenance.json") as staged:
+        for name in ("e_a.csv", "e_provenance.json", "meshes/n9.vtk", "meshes/n45.vtk"):
+            (staged / name).parent.mkdir(exist_ok=True)
+            (staged / name).write_text("1\n")
+    (data / "e_a.csv").chmod(0o600)
+    (tmp_path / "kept.csv").write_text("linked\n")
+    (data / "e_b.csv").symlink_to(tmp_path / "kept.csv")
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True
+    )
+    from replication.io.atomic import writer_tag
+
+    host = writer_tag().split(".", 1)[1]  # "<host>-": this machine's
+    abandoned = data / f".staging-{int(dead.stdout)}.{host}x"  # a save that was killed
+    abandoned.mkdir()
+    (abandoned / "e_a.csv").write_text("partial")
+    with data_set(data, "e_provenance.json", stale=["meshes/*"]) as staged:
+        (staged / "meshes").mkdir()
+        for name in ("e_a.csv", "e_b.csv", "e_provenance.json", "meshes/n9.vtk"):
+            (staged / name).write_text("2\n")
+    assert (data / "e_a.csv").stat().st_mode & 0o777 == 0o600
+    assert (data / "e_b.csv").is_symlink() and (tmp_path / "kept.csv").read_text() == "2\n"
+    assert not abandoned.exists() and sorted(p.name for p in (data / "meshes").iterdir()) == ["n9.vtk"]
+    assert _files(data)["meshes/n9.vtk"] == b"2\n"
+
+
+def test_a_data_set_leaves_an_ignored_or_foreign_ctrl_c_alone(tmp_path, monkeypatch):
+    # a background job ignores SIGINT: the held Ctrl-C became a KeyboardInterrupt after publishing
+    import signal
+
+    from replication.report import store
+
+    real_replace = os.replace
+
+    def replace_then_ctrl_c(a, b):
+        real_replace(a, b)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(store.os, "replace", replace_then_ctrl_c)
+    seen = []
+    for handler in (signal.SIG_IGN, lambda signum, frame: seen.append(signum)):
+        previous = signal.signal(signal.SIGINT, handler)
+        try:
+            with store.data_set(tmp_path / "data", "e_provenance.json") as staged:
+                (staged / "e_provenance.json").write_text("{}\n")
+        finally:
+            signal.signal(signal.SIGINT, previous)
+    assert seen == [signal.SIGINT]
+
+
+def test_report_csv_quirks(tmp_path):
+    from replication.errors import ReportDataError
+    from replication.report.store import read_csv
+
+    path = tmp_path / "t.csv"
+    path.write_bytes(b'name,note\na,"two\r\nlines"\nb,x\n')
+    assert read_csv(path)["note"].tolist() == ["two\r\nlines", "x"]  # the quoted line end is data
+    path.write_text('name,note\na,"two\nlines"\nb,"x"\nc\n')
+    with pytest.raises(ReportDataError, match="line 5 has 1 fields"):  # the physical line
+        read_csv(path)
+    path.write_text("name,note\na," + "x" * 200_000 + "\n")
+    with pytest.raises(ReportDataError, match="line 2: field larger than field limit"):  # was csv.Error
+        read_csv(path)
+
+
+def test_a_masked_cloud_is_refused_and_a_numpy_string_depth_is_a_str():
+    # a masked array was triangulated with the values hidden under its mask, without a word
+    masked = np.ma.masked_array(CLOUD, mask=[[0, 0, 0], [0, 1, 0], [0, 0, 0]])
+    with pytest.raises(InputError, match="1 masked value"):
+        adt(masked)
+    assert adt(np.ma.masked_array(CLOUD)).n_vertices == 3  # nothing masked: the plain values
+    assert type(adt(CLOUD, depth=np.str_("z")).depth_rule) is str
+
+
+def test_the_temporary_of_a_killed_write_is_removed_by_the_next_write(surface, tmp_path):
+    # SIGKILL during a write left its hidden temporary (80 MB for a 3e6-point surface) for good
+    import signal
+    import subprocess
+    import sys
+    import textwrap
+
+    script = textwrap.dedent(
+        f"""
+        import os, time
+        from replication.io.atomic import atomic_path
+        with atomic_path({str(tmp_path / "s.vtk")!r}) as tmp:
+            tmp.write_text("partial")
+            print(tmp.name, flush=True)
+            time.sleep(60)
+        """
+    )
+    with subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True) as child:
+        name = child.stdout.readline().strip()
+        child.send_signal(signal.SIGKILL)
+    (tmp_path / ".s.vtk.1.ffffffff-abc.tmp.vtk").write_text("another machine's write")
+    assert (tmp_path / name).is_file()
+    write_vtk(surface, tmp_path / "s.vtk")
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".s.vtk.1.ffffffff-abc.tmp.vtk", "s.vtk"]

@@ -199,3 +199,43 @@ def test_bad_arguments():
         verdict({"status": "ok"}, {"status": "ok"}, factor=0.5)
     with pytest.raises(ValueError, match="sizes 0 and 2"):
         mann_whitney_u([], [1.0, 2.0])
+
+
+def test_three_samples_a_side_and_no_intervals_cannot_tell():
+    # too few samples for the U test (p >= 0.05 at best) and no CIs: it said "slower, 99 % CIs apart"
+    row = {"status": "ok", "kind": "time", "repeat": 3, "ci_low": None, "ci_high": None}
+    v = verdict(
+        {**row, "value": 1e-3, "samples": [1e-3] * 3}, {**row, "value": 1.5e-3, "samples": [1.5e-3] * 3}
+    )
+    assert v.word == "cannot tell" and v.ratio == pytest.approx(1.5)
+
+
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        (lambda d: d.pop("date"), "no commit date"),  # was dated 1970, so the newer commit became the base
+        (lambda d: d.update(date="2026-01-01"), "no commit date"),
+        (lambda d: d.update(results=None), "'results' is not an object"),
+        (lambda d: d["results"]["b.time_plain"].__setitem__(11, [[None, "x"]]), "not an asv result file"),
+        (lambda d: d["results"]["b.time_plain"].__setitem__(3, 1e20), "not an asv result file"),
+    ],
+)
+def test_odd_asv_files_are_one_line_errors_naming_the_file(tmp_path, change, match):
+    from replication.errors import ReportDataError
+
+    results = write_results(
+        tmp_path, [("aaaaaaaa11", 1, {"b.time_plain": timing([1e-3], samples=[[1e-3, 2e-3]])})]
+    )
+    path = results / "m1" / "aaaaaaaa-existing-py.json"
+    data = json.loads(path.read_text())
+    change(data)
+    path.write_text(json.dumps(data))
+    with pytest.raises(ReportDataError, match=match) as info:
+        load_asv_results(results)
+    assert "aaaaaaaa-existing-py.json" in str(info.value)
+    path.write_bytes(b"{bad json\xff")
+    with pytest.raises(ReportDataError, match="not a readable asv file"):
+        load_asv_results(results)
+    (results / "benchmarks.json").write_text("[1, 2]")
+    with pytest.raises(ReportDataError, match="expected a JSON object, got list"):
+        load_asv_results(results)

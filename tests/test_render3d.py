@@ -41,3 +41,23 @@ def test_renders_are_deterministic(tmp_path):
     render_views(views)
     assert [p.read_bytes() for p in views] == first
     assert all(np.frombuffer(b[:8], np.uint8).tolist() == [137, 80, 78, 71, 13, 10, 26, 10] for b in first)
+
+
+def test_ctrl_c_while_pyvista_is_imported_waits_for_the_import(monkeypatch):
+    # a KeyboardInterrupt inside VTK's module initialisation crashed the interpreter (segfault)
+    import os
+    import signal
+
+    from replication.report import render3d
+
+    imported = []
+
+    def import_module(name):
+        os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C in the middle of the import
+        imported.append(name)  # the import still completes
+        return "pyvista"
+
+    monkeypatch.setattr(render3d.importlib, "import_module", import_module)
+    with pytest.raises(KeyboardInterrupt):
+        render3d._load_pyvista()
+    assert imported == ["pyvista"]

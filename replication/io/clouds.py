@@ -1,8 +1,13 @@
 """Point-cloud files: ``.csv``, ``.txt``, ``.xyz`` (text) and ``.npy`` (numpy).
 
 Text files hold three numeric columns (x, y, z) separated by commas or white space, with an
-optional header line and optional ``#`` comment lines. Every problem is reported as a
-:class:`~replication.errors.CloudFileError` naming the file and, where it applies, the line.
+optional header line and optional ``#`` comment lines. A header that names the three axes
+(``z,x,y``, ``X [mm],Y [mm],Z [mm]``) says which column is which; any other header is a label.
+A first line ``0,1,2`` (or ``0 1 2``) may be pandas' header of column numbers (see
+:func:`_column_number_header`), except in the files :func:`save_cloud` writes: their ``.csv``
+has the header ``x,y,z``, and their ``.txt``/``.xyz`` start with the comment ``# x y z``.
+Every problem is reported as a :class:`~replication.errors.CloudFileError` naming the file
+and, where it applies, the line.
 """
 
 from __future__ import annotations
@@ -23,6 +28,9 @@ __all__ = ["CLOUD_SUFFIXES", "load_cloud", "save_cloud"]
 
 CLOUD_SUFFIXES: tuple[str, ...] = (".csv", ".txt", ".xyz", ".npy")
 _TEXT_SUFFIXES = (".csv", ".txt", ".xyz")
+#: The first line of the ``.txt``/``.xyz`` files :func:`save_cloud` writes: a comment that says
+#: the next line is a point, even a point (0, 1, 2).
+TEXT_HEADER = "# x y z\n"
 
 
 def _is_number(token: str) -> bool:
@@ -87,19 +95,24 @@ def _load_text(path: Path) -> np.ndarray:
         text = path.read_text(encoding="utf-8-sig")  # a byte-order mark (Excel's UTF-8 CSV) is not data
     except UnicodeDecodeError as exc:
         raise CloudFileError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from exc
+    lines = text.splitlines()
+    ours = bool(lines) and lines[0].strip() == TEXT_HEADER.strip()  # save_cloud's .txt/.xyz
     numbered = [
         (i, line)
-        for i, line in enumerate(text.splitlines(), start=1)
+        for i, line in enumerate(lines, start=1)
         if line.strip() and not line.lstrip().startswith("#")
     ]
     if not numbered:
         raise CloudFileError(f"{path}: the file is empty (no data lines)")
-    first_tokens = _split(numbered[0][1], "," in numbered[0][1])
+    first_comma = "," in numbered[0][1]
+    first_tokens = _split(numbered[0][1], first_comma)
+    order = None
     if not any(_is_number(t) for t in first_tokens):
         numbered = numbered[1:]  # a header line: no numeric token at all (a malformed data line has some)
         if not numbered:
             raise CloudFileError(f"{path}: the file has a header but no data lines")
-    elif first_tokens == ["0", "1", "2"]:
+        order = _header_order(first_tokens)
+    elif first_tokens == ["0", "1", "2"] and not ours:
         numbered = _column_number_header(path, numbered)
     comma = "," in numbered[0][1]
     body = "\n".join(line for _, line in numbered)
@@ -111,9 +124,40 @@ def _load_text(path: Path) -> np.ndarray:
         raise _diagnose(path, numbered, comma)
     bad = np.flatnonzero(~np.isfinite(data).all(axis=1))
     if bad.size:
-        lines = shown(numbered[i][0] for i in bad)
-        raise CloudFileError(f"{path}: NaN or infinite coordinates on {bad.size} line(s): {lines}")
-    return data
+        shown_lines = shown(numbered[i][0] for i in bad)
+        raise CloudFileError(f"{path}: NaN or infinite coordinates on {bad.size} line(s): {shown_lines}")
+    if order is None:
+        return data
+    warnings.warn(
+        f"{path}: the header {', '.join(first_tokens)} names the columns, so they were read as "
+        f"{', '.join(first_tokens[k] for k in order)} (x, y, z)",
+        CloudFileWarning,
+        stacklevel=3,
+    )
+    return np.ascontiguousarray(data[:, order])
+
+
+def _axis_name(token: str) -> str:
+    """``x`` of a header such as ``X``, ``x [mm]``, ``x_mm`` or ``"x"``; other names as they are."""
+    name = token.strip().strip("\"'").lower()
+    for k, char in enumerate(name):
+        if not char.isalnum():
+            return name[:k]
+    return name
+
+
+def _header_order(tokens: list[str]) -> list[int] | None:
+    """The column order that puts a header's x, y and z first to last, when it names all three.
+
+    A header such as ``z,x,y`` (or ``Z [mm],X [mm],Y [mm]``) names its columns: they are read
+    as the axes it names, so the cloud is the same as in a file that lists x, y, z in order.
+    Any other header is a label only, and the columns are x, y and z in file order.
+    """
+    names = [_axis_name(t) for t in tokens]
+    if sorted(names) != ["x", "y", "z"]:
+        return None
+    order = [names.index(axis) for axis in ("x", "y", "z")]
+    return None if order == [0, 1, 2] else order
 
 
 _NPY_MAGIC = b"\x93NUMPY"
@@ -162,8 +206,11 @@ def load_cloud(path: str | os.PathLike[str]) -> np.ndarray:
     Warns
     -----
     CloudFileWarning
-        A first line ``0,1,2``, which pandas writes as a header of column numbers.
+        A first line ``0,1,2``, which pandas writes as a header of column numbers; a header
+        that names the axes in another order than x, y, z (the columns are reordered).
     """
+    if not os.fspath(path):
+        raise CloudFileError("no point-cloud file named: the file name is empty")
     path = Path(path)
     if not path.exists():
         raise CloudFileError(f"point-cloud file not found: {path}")
@@ -187,8 +234,8 @@ def load_cloud(path: str | os.PathLike[str]) -> np.ndarray:
 def save_cloud(points: np.ndarray, path: str | os.PathLike[str]) -> int:
     """Write a point cloud atomically; the format follows the suffix. Return bytes written.
 
-    ``.csv`` gets a header ``x,y,z`` and comma-separated values, ``.txt``/``.xyz``
-    space-separated values, ``.npy`` a numpy array. Text values use the shortest
+    ``.csv`` gets a header ``x,y,z`` and comma-separated values, ``.txt``/``.xyz`` the comment
+    line ``# x y z`` and space-separated values, ``.npy`` a numpy array. Text values use the shortest
     representation that reads back to the same float64.
     """
     cloud = as_cloud(points)
@@ -196,7 +243,8 @@ def save_cloud(points: np.ndarray, path: str | os.PathLike[str]) -> int:
     suffix = path.suffix.lower()
     if suffix == ".npy":
         with atomic_path(path) as tmp:
-            np.save(tmp, cloud, allow_pickle=False)
+            with open(tmp, "wb") as handle:  # a name not ending in lower-case .npy would get one added
+                np.save(handle, cloud, allow_pickle=False)
             size = tmp.stat().st_size
         return size
     if suffix not in _TEXT_SUFFIXES:
@@ -205,7 +253,7 @@ def save_cloud(points: np.ndarray, path: str | os.PathLike[str]) -> int:
             f"use one of {', '.join(CLOUD_SUFFIXES)}"
         )
     sep = "," if suffix == ".csv" else " "
-    header = "x,y,z\n" if suffix == ".csv" else ""
+    header = "x,y,z\n" if suffix == ".csv" else TEXT_HEADER
     row = sep.join(["{}"] * cloud.shape[1]) + "\n"
     rows = "".join(map(row.format, *(shortest_decimals(cloud[:, k]) for k in range(cloud.shape[1]))))
     return atomic_write_text(path, header + rows)

@@ -30,11 +30,23 @@ def _identity(path: Path) -> tuple[int, int] | None:
     return st.st_dev, st.st_ino
 
 
+def _looped(path: Path) -> bool:
+    try:
+        path.resolve()
+    except (OSError, RuntimeError):
+        return True
+    return False
+
+
 def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
     """Whether two names denote the same file (resolved path, or device and inode)."""
     pa, pb = Path(a), Path(b)
-    if pa.resolve() == pb.resolve():
-        return True
+    try:
+        if pa.resolve() == pb.resolve():
+            return True
+    except (OSError, RuntimeError) as exc:  # RuntimeError: a symbolic link loop (Python 3.11)
+        loop = pa if _looped(pa) else pb
+        raise OutputError(f"{loop}: cannot follow the symbolic link ({exc})") from exc
     ia, ib = _identity(pa), _identity(pb)
     return ia is not None and ia == ib
 

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
+import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Literal, Protocol
@@ -142,11 +144,34 @@ def write_vtp(
     else:
         writer.SetCompressorTypeToNone()
     with atomic_path(path) as tmp:
-        writer.SetFileName(str(tmp))
-        if writer.Write() != 1:
-            raise OutputError(f"VTK could not write {path}")
+        if _vtk_can_name(tmp):
+            _vtk_write(writer, tmp, path)
+        else:  # VTK takes UTF-8 names only: write elsewhere, then copy the bytes in
+            with tempfile.TemporaryDirectory(prefix="replication-vtp-") as scratch:
+                staged = Path(scratch) / "surface.vtp"
+                _vtk_write(writer, staged, path)
+                tmp.write_bytes(staged.read_bytes())
         size = tmp.stat().st_size
     return size
+
+
+def _vtk_can_name(path: Path) -> bool:
+    """Whether VTK, which takes file names as UTF-8 text, can open ``path`` by name.
+
+    A file name that is not valid UTF-8 (bytes that Python carries as surrogate escapes)
+    cannot be passed to VTK at all.
+    """
+    try:
+        str(path).encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+def _vtk_write(writer: object, target: Path, path: str | os.PathLike[str]) -> None:
+    writer.SetFileName(str(target))  # type: ignore[attr-defined]
+    if writer.Write() != 1:  # type: ignore[attr-defined]
+        raise OutputError(f"VTK could not write {path}")
 
 
 def surface_format(path: str | os.PathLike[str], fmt: str | None = None) -> SurfaceFormat:
@@ -212,12 +237,22 @@ def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
     from vtkmodules.vtkIOLegacy import vtkPolyDataReader
     from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
 
+    if not os.fspath(path):
+        raise CloudFileError("no surface file named: the file name is empty")
     path = Path(path)
+    if path.is_dir():
+        raise CloudFileError(f"expected a surface file, got a directory: {path}")
     if not path.is_file():
         raise CloudFileError(f"surface file not found: {path}")
     reader = vtkPolyDataReader() if surface_format(path) == "vtk" else vtkXMLPolyDataReader()
-    with _vtk_messages() as messages:
-        reader.SetFileName(str(path))
+    with contextlib.ExitStack() as stack:
+        source = path
+        if not _vtk_can_name(path):  # VTK takes UTF-8 names only: read a copy
+            scratch = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="replication-vtk-")))
+            source = scratch / f"surface{path.suffix.lower()}"
+            shutil.copyfile(path, source)
+        messages = stack.enter_context(_vtk_messages())
+        reader.SetFileName(str(source))
         reader.Update()
         output = reader.GetOutput()
     why = f" (VTK: {messages[0]})" if messages else ""
@@ -226,7 +261,9 @@ def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
     mesh = pv.wrap(output)
     if not isinstance(mesh, pv.PolyData) or mesh.n_points == 0:
         raise CloudFileError(f"{path}: no surface (points and triangles) in the file{why}")
-    if mesh.n_cells == 0 or not mesh.is_all_triangles:
+    if mesh.n_cells == 0:
+        raise CloudFileError(f"{path}: points but no triangles in the file (is it cut short?){why}")
+    if not mesh.is_all_triangles:
         raise CloudFileError(f"{path}: the surface must consist of triangles only")
     points = np.asarray(mesh.points, dtype=np.float64)
     triangles = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 4)[:, 1:]

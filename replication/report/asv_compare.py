@@ -81,7 +81,7 @@ class Difference:
     """Whether two results differ, and by which test."""
 
     different: bool
-    test: str  # "Mann-Whitney U" or "99 % CIs"
+    test: str  # "Mann-Whitney U", "99 % CIs", or "none" (neither could be applied)
     p: float | None = None  # the U test's p-value
 
 
@@ -98,6 +98,8 @@ def is_different(
         if a and b and 1 / math.comb(len(a) + len(b), min(len(a), len(b))) < P_THRESHOLD:
             _, p = mann_whitney_u(a, b)
             return Difference(p < P_THRESHOLD, "Mann-Whitney U", p)
+    if any(c is None or c != c for c in (*ci_a, *ci_b)):  # too few samples and no interval: no test
+        return Difference(False, "none")
     overlap = ci_a[1] >= ci_b[0] and ci_a[0] <= ci_b[1]
     return Difference(not overlap, "99 % CIs")
 
@@ -160,16 +162,14 @@ def verdict(before: dict, after: dict, *, factor: float = 1.1) -> Verdict:
     repeats = (before.get("repeat"), after.get("repeat"))
     if any(r is None or r != r or r <= 1 for r in repeats):
         return Verdict("cannot tell", ratio)  # one sample (or no statistics): no test possible
-    cis = (before.get("ci_low"), before.get("ci_high"), after.get("ci_low"), after.get("ci_high"))
-    has_samples = before.get("samples") is not None and after.get("samples") is not None
-    if not has_samples and any(c is None or c != c for c in cis):
-        return Verdict("cannot tell", ratio)
     diff = is_different(
         before.get("samples"),
         after.get("samples"),
         (before["ci_low"], before["ci_high"]),
         (after["ci_low"], after["ci_high"]),
     )
+    if diff.test == "none":  # samples too few for the U test, and no intervals recorded
+        return Verdict("cannot tell", ratio)
     if not diff.different:
         return Verdict("noise", ratio, diff)
     return Verdict(up if ratio > 1 else down, ratio, diff)

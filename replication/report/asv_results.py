@@ -27,7 +27,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from replication.errors import CloudFileError
+from replication.errors import CloudFileError, ReportDataError
 
 __all__ = ["COLUMNS", "load_asv_results", "single_sample"]
 
@@ -42,8 +42,19 @@ def _benchmarks(results_dir: Path) -> dict[str, dict]:
     path = results_dir / "benchmarks.json"
     if not path.is_file():
         raise CloudFileError(f"no asv results in {results_dir} (run `asv run` first; see the README)")
-    info = json.loads(path.read_text(encoding="utf-8"))
+    info = _read(path)
     return {name: b for name, b in info.items() if isinstance(b, dict) and "unit" in b}
+
+
+def _read(path: Path) -> dict:
+    """A JSON object of asv's, or a one-line error naming the file."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise ReportDataError(f"{path}: not a readable asv file ({' '.join(str(exc).split())})") from exc
+    if not isinstance(data, dict):
+        raise ReportDataError(f"{path}: not an asv file (expected a JSON object, got {type(data).__name__})")
+    return data
 
 
 def _field(entry: dict, key: str, j: int, n: int) -> object:
@@ -65,9 +76,15 @@ def _params_text(names: list[str], combo: tuple) -> str:
 
 def _rows(machine: str, data: dict, benchmarks: dict[str, dict]) -> list[dict]:
     columns = data.get("result_columns", ["result", "params"])
-    date = dt.datetime.fromtimestamp(data.get("date", 0) / 1000, dt.UTC)
+    stamp = data.get("date")
+    if not isinstance(stamp, (int, float)) or isinstance(stamp, bool):  # the commits are ordered by it
+        raise ValueError(f"no commit date (got {stamp!r})")
+    date = dt.datetime.fromtimestamp(stamp / 1000, dt.UTC)
+    results = data.get("results")
+    if not isinstance(results, dict) or not isinstance(columns, list):
+        raise ValueError("'results' is not an object of benchmarks")
     rows = []
-    for name, record in data.get("results", {}).items():
+    for name, record in results.items():
         if name not in benchmarks:
             continue
         info = benchmarks[name]
@@ -132,6 +149,9 @@ def load_asv_results(results_dir: str | os.PathLike[str]) -> pd.DataFrame:
     ------
     CloudFileError
         When there is no ``benchmarks.json`` (asv has not run).
+    ReportDataError
+        A file that is not asv's (malformed JSON, no commit date, values of the wrong type),
+        named.
 
     Notes
     -----
@@ -144,7 +164,13 @@ def load_asv_results(results_dir: str | os.PathLike[str]) -> pd.DataFrame:
     for machine_dir in sorted(p for p in results_dir.iterdir() if p.is_dir()):
         for path in sorted(machine_dir.glob("*.json")):
             if path.name != "machine.json":
-                rows += _rows(machine_dir.name, json.loads(path.read_text(encoding="utf-8")), benchmarks)
+                data = _read(path)
+                try:
+                    rows += _rows(machine_dir.name, data, benchmarks)
+                except (TypeError, ValueError, AttributeError, OverflowError, OSError) as exc:
+                    raise ReportDataError(
+                        f"{path}: not an asv result file ({' '.join(str(exc).split())})"
+                    ) from exc
     return pd.DataFrame(rows, columns=COLUMNS)
 
 

@@ -21,13 +21,13 @@ from matplotlib.patches import Wedge
 from replication.errors import DuplicatePointsWarning
 from replication.experiments.casestudy import differences_from_paper
 from replication.io.atomic import atomic_write_text
-from replication.report.casestudy_rescore import rescore_section, save_rescore_data  # issue 11
+from replication.report.casestudy_rescore import RESCORE_FILES, rescore_section, save_rescore_data  # issue 11
 from replication.report.casestudy_validation import fitness_note, validation_section  # issue 11
 from replication.report.figures import clear_figures, figure_files, save_figure
 from replication.report.markdown import fmt, iqr, provenance_section, table
 from replication.report.parallel import run_figure_tasks
 from replication.report.render3d import render_views
-from replication.report.store import read_csv, read_json, write_csv, write_json
+from replication.report.store import data_set, read_csv, read_json, write_csv, write_json
 
 __all__ = ["save_casestudy_data", "load_casestudy_data", "render_casestudy"]
 
@@ -48,19 +48,20 @@ COLUMNS: dict[str, tuple[str, ...]] = {
 def save_casestudy_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
     """Write the case study's tables, best individuals and provenance under ``out_dir/data``."""
     data = Path(out_dir) / "data"
-    data.mkdir(parents=True, exist_ok=True)
-    for name in TABLES:
-        write_csv(getattr(results, name), data / f"casestudy_{name}.csv")
-    best = pd.concat(
-        [
-            pd.DataFrame(points, columns=["x_mm", "y_mm", "z_mm"]).assign(run=k)
-            for k, points in results.best.items()
-        ],
-        ignore_index=True,
-    )
-    write_csv(best, data / "casestudy_best.csv")
-    write_json(results.provenance, data / "casestudy_provenance.json")
-    save_rescore_data(results, data)  # issue 11: the best surfaces by SPH, when re-scored
+    stale = RESCORE_FILES if getattr(results, "rescore", None) is None else ()
+    with data_set(data, "casestudy_provenance.json", stale=stale) as staged:
+        for name in TABLES:
+            write_csv(getattr(results, name), staged / f"casestudy_{name}.csv")
+        best = pd.concat(
+            [
+                pd.DataFrame(points, columns=["x_mm", "y_mm", "z_mm"]).assign(run=k)
+                for k, points in results.best.items()
+            ],
+            ignore_index=True,
+        )
+        write_csv(best, staged / "casestudy_best.csv")
+        write_json(results.provenance, staged / "casestudy_provenance.json")
+        save_rescore_data(results, staged)  # issue 11: the best surfaces by SPH, when re-scored
     return data
 
 

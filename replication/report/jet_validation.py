@@ -30,7 +30,7 @@ from replication.report.jet_validation_text import (
     surrogate_section,
 )
 from replication.report.markdown import provenance_section, table
-from replication.report.store import read_csv, read_json, write_csv, write_json
+from replication.report.store import data_set, read_csv, read_json, write_csv, write_json
 
 __all__ = [
     "OPTIONAL",
@@ -69,15 +69,13 @@ SURFACE_HEADER = [
 def save_jet_validation_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
     """Write the study's tables and provenance under ``out_dir/data``."""
     data = Path(out_dir) / "data"
-    data.mkdir(parents=True, exist_ok=True)
-    for name in TABLES + OPTIONAL:
-        frame = getattr(results, name, None)
-        path = data / f"{PREFIX}_{name}.csv"
-        if frame is not None:
-            write_csv(frame, path)
-        elif path.is_file():  # a table of an earlier run that this one does not have
-            path.unlink()
-    write_json(results.provenance, data / f"{PREFIX}_provenance.json")
+    absent = [name for name in TABLES + OPTIONAL if getattr(results, name, None) is None]
+    # the tables of an earlier run that this one does not have are removed
+    with data_set(data, f"{PREFIX}_provenance.json", stale=[f"{PREFIX}_{n}.csv" for n in absent]) as staged:
+        for name in TABLES + OPTIONAL:
+            if name not in absent:
+                write_csv(getattr(results, name), staged / f"{PREFIX}_{name}.csv")
+        write_json(results.provenance, staged / f"{PREFIX}_provenance.json")
     return data
 
 

@@ -8,9 +8,11 @@ views are drawn with matplotlib's 3-D axes and :func:`render_views` says so.
 
 from __future__ import annotations
 
+import importlib
 import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -24,9 +26,22 @@ Mesh = tuple[np.ndarray, np.ndarray]
 COLORS = {"ADT": "#d9a441", "NURBS": "#5b8fd9"}
 
 
-def _pyvista_views(views: dict[Path, Sequence[tuple[str, Mesh]]], size: tuple[int, int]) -> None:
+def _load_pyvista() -> Any:
+    """``import pyvista`` (and VTK's compiled modules), with Ctrl-C held until it is done.
+
+    A KeyboardInterrupt raised in the middle of VTK's module initialisation left it half
+    built, and the interpreter then crashed (a segmentation fault, 3 of 40 Ctrl-Cs at that
+    moment) instead of reporting the interrupt.
+    """
+    from replication.report.store import interrupt_deferred
+
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-    import pyvista as pv
+    with interrupt_deferred():
+        return importlib.import_module("pyvista")
+
+
+def _pyvista_views(views: dict[Path, Sequence[tuple[str, Mesh]]], size: tuple[int, int]) -> None:
+    pv = _load_pyvista()
 
     from replication.surfaces.adt import triangle_polydata
 

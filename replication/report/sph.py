@@ -15,7 +15,7 @@ import numpy as np
 from replication.io.atomic import atomic_write_text
 from replication.report.markdown import fmt, provenance_section, table
 from replication.report.sph_figures import convergence_figure, run_label, series_figure
-from replication.report.store import read_csv, read_json, write_csv, write_json
+from replication.report.store import data_set, read_csv, read_json, write_csv, write_json
 
 __all__ = ["TABLES", "load_sph_data", "render_sph", "save_sph_data"]
 
@@ -25,10 +25,10 @@ TABLES = ("runs", "series", "shapes", "hypotheses")
 def save_sph_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
     """Write the SPH study's tables and provenance under ``out_dir/data``."""
     data = Path(out_dir) / "data"
-    data.mkdir(parents=True, exist_ok=True)
-    for name in TABLES:
-        write_csv(getattr(results, name), data / f"sph_{name}.csv")
-    write_json(results.provenance, data / "sph_provenance.json")
+    with data_set(data, "sph_provenance.json") as staged:
+        for name in TABLES:
+            write_csv(getattr(results, name), staged / f"sph_{name}.csv")
+        write_json(results.provenance, staged / "sph_provenance.json")
     return data
 
 

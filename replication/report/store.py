@@ -1,19 +1,31 @@
-"""Atomic reading and writing of the data behind the reports (CSV and JSON)."""
+"""Atomic reading and writing of the data behind the reports (CSV and JSON).
+
+Each file is written atomically, and an experiment's files are published together
+(:func:`data_set`): a run stopped while it saves leaves the previous data set whole, never
+files of two runs side by side under one provenance.
+"""
 
 from __future__ import annotations
 
+import contextlib
+import csv
 import io
 import json
 import os
+import shutil
+import signal
+import tempfile
+import threading
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
 from replication.errors import ReportDataError
-from replication.io.atomic import atomic_write_text
+from replication.io.atomic import atomic_write_text, writer_gone, writer_tag
 
-__all__ = ["read_csv", "read_json", "write_csv", "write_json"]
+__all__ = ["data_set", "interrupt_deferred", "read_csv", "read_json", "write_csv", "write_json"]
 
 
 def write_csv(frame: pd.DataFrame, path: str | os.PathLike[str]) -> int:
@@ -32,7 +44,10 @@ def read_csv(path: str | os.PathLike[str], columns: tuple[str, ...] = ()) -> pd.
     if not path.is_file():
         raise ReportDataError(f"report data not found: {path} (run the experiment first)")
     try:
-        frame = pd.read_csv(path)
+        with open(path, encoding="utf-8", newline="") as handle:  # "\r\n" in a quoted field stays
+            text = handle.read()
+        _check_rows(text)
+        frame = pd.read_csv(io.StringIO(text))
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError) as exc:
         reason = " ".join(str(exc).split())
         raise ReportDataError(
@@ -45,6 +60,26 @@ def read_csv(path: str | os.PathLike[str], columns: tuple[str, ...] = ()) -> pd.
             "regenerate the report data"
         )
     return frame
+
+
+def _check_rows(text: str) -> None:
+    """Refuse a table cut short: every row has the header's fields, and the text ends a line.
+
+    :func:`write_csv` ends every row with a newline; pandas alone would read a row cut in
+    half (a copy or download that stopped) with its missing fields as NaN.
+    """
+    if text and not text.endswith("\n"):
+        raise ValueError("the last row is incomplete (no line end): the file was cut short")
+    rows = csv.reader(io.StringIO(text))
+    try:
+        header = next(rows, None)
+        if header is None:
+            return  # empty: pandas names it
+        for row in rows:
+            if row and len(row) != len(header):
+                raise ValueError(f"line {rows.line_num} has {len(row)} fields, the header {len(header)}")
+    except csv.Error as exc:  # (a field over the csv module's size limit, for one)
+        raise ValueError(f"line {rows.line_num}: {exc}") from exc
 
 
 def write_json(data: dict[str, Any], path: str | os.PathLike[str]) -> int:
@@ -63,3 +98,84 @@ def read_json(path: str | os.PathLike[str]) -> dict[str, Any]:
     if not isinstance(data, dict):
         raise ReportDataError(f"{path}: expected a JSON object, got {type(data).__name__}")
     return data
+
+
+@contextlib.contextmanager
+def interrupt_deferred() -> Iterator[None]:
+    """Hold a Ctrl-C (SIGINT) until the block ends, then raise it.
+
+    Only where Python's own handler is in place (in the main thread): an ignored SIGINT (a
+    background job) or an application's own handler is left to do what it does.
+    """
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+    ):
+        yield
+        return
+    caught: list[int] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    if caught:
+        raise KeyboardInterrupt
+
+
+STAGING = ".staging-"
+
+
+def _remove_abandoned_staging(data: Path) -> None:
+    """Remove staging directories of :func:`data_set` whose process no longer runs (a killed save)."""
+    for path in data.glob(f"{STAGING}*"):
+        if writer_gone(path.name[len(STAGING) :]):
+            shutil.rmtree(path, ignore_errors=True)
+
+
+def _publish(source: Path, target: Path) -> None:
+    """Move a staged file into place, as :func:`~replication.io.atomic.atomic_path` writes one:
+    through a symbolic link to its target, keeping a replaced file's permissions."""
+    if target.is_symlink():
+        target = target.resolve()
+    if target.is_file():
+        os.chmod(source, target.stat().st_mode & 0o777)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    os.replace(source, target)
+
+
+@contextlib.contextmanager
+def data_set(data: Path, provenance: str, *, stale: Iterable[str] = ()) -> Iterator[Path]:
+    """Stage an experiment's data files, then publish them together, the provenance last.
+
+    Yields a staging directory inside ``data``: write the files there under their final
+    names (subdirectories included). When the block ends without an error, the old
+    provenance is removed, the files matching the ``stale`` glob patterns (relative to
+    ``data``) that this run does not write are removed, the staged files replace those in
+    ``data`` and the new provenance comes last, with Ctrl-C held meanwhile.
+
+    A Ctrl-C or an error while the files are written leaves ``data`` as it was. A crash in the
+    short publishing step leaves the data without their provenance: ``replication report``
+    then renders nothing from them and says so. A staging directory left by a killed process
+    is removed by the next save. Two commands saving into one ``data`` at once are not
+    guarded against.
+    """
+    data.mkdir(parents=True, exist_ok=True)
+    _remove_abandoned_staging(data)
+    staging = Path(tempfile.mkdtemp(prefix=f"{STAGING}{writer_tag()}", dir=data))
+    try:
+        yield staging
+        staged = sorted(p.relative_to(staging) for p in staging.rglob("*") if p.is_file())
+        if Path(provenance) not in staged:
+            raise ValueError(f"the staged data set has no provenance {provenance}")
+        old = {p.relative_to(data) for pattern in stale for p in data.glob(pattern) if p.is_file()}
+        with interrupt_deferred():
+            (data / provenance).unlink(missing_ok=True)
+            for name in sorted(old - set(staged)):
+                (data / name).unlink(missing_ok=True)
+            for name in staged:
+                if name != Path(provenance):
+                    _publish(staging / name, data / name)
+            _publish(staging / provenance, data / provenance)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
