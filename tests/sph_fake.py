@@ -17,6 +17,7 @@ CALLS: list[str] = []  # names simulated (serial and thread executors share it)
 LOCK = threading.Lock()
 RUNNING = [0, 0]  # now, most at once
 REFUSED = 12.75  # mm
+FORCE_STATUS: str | None = None  # a status every simulation ends with (tests of failures)
 
 
 def fake_sph(points, triangles, config, settings, *, timeout, run_dir):
@@ -30,10 +31,11 @@ def fake_sph(points, triangles, config, settings, *, timeout, run_dir):
         RUNNING[1] = max(RUNNING)
     time.sleep(0.02)
     run_dir = Path(run_dir)
-    run_dir.mkdir(parents=True)
-    status = "blowup" if float(np.min(points[:, 2])) >= 13 else "ok"
+    run_dir.mkdir(parents=True, exist_ok=True)  # as sph_force: an existing --run-dir is used
+    status = FORCE_STATUS or ("blowup" if float(np.min(points[:, 2])) >= 13 else "ok")
+    reason = None if status == "ok" else "runaway velocities" if status == "blowup" else f"forced {status}"
     result = SPHForce(
-        status=status, reason="runaway velocities" if status != "ok" else None, key="k", settings=settings,
+        status=status, reason=reason, key="k", settings=settings,
         jet=config, mirrored=True, time=np.arange(3) * 1e-3, force=np.zeros((3, 3)),
         mean_force=np.array([0.0, 0.0, -1.0 - float(np.mean(points[:, 2]))]), window=(0.001, 0.002),
         std_axial=0.1, peak_axial=1.0, peak_time=0.0, max_axial=1.0, max_step_axial=1.0, mass_flow=1.0,

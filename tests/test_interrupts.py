@@ -340,3 +340,142 @@ def test_ctrl_c_again_while_the_pool_says_it_waits_is_heard():
         pytest.fail("the second Ctrl-C was not heard: the command waited for the task under way")
     assert process.returncode != 0 and "KeyboardInterrupt" in err
     assert_no_process_left(process.pid)
+
+
+def _wait_for(condition, seconds=20.0):
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.1)
+    return False
+
+
+def _ended(pid):
+    """Whether process ``pid`` has ended: gone, or a zombie (an orphan's exit status waits for
+    whoever adopted it, and not every init process collects it)."""
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().rpartition(")")[2].split()[0] in ("Z", "X")
+    except FileNotFoundError:
+        return True
+    except OSError:  # no /proc: ask the kernel whether the pid exists at all
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return True
+        return False
+
+
+def test_a_killed_command_leaves_no_pool_worker_and_no_lock(tmp_path):
+    """SIGKILL of the command: its forked workers waited forever, holding the run directory's
+    lock, so --resume was refused until they were found and killed by hand."""
+    from replication.casestudy.rundir import RunDirBusyError, hold
+
+    script = f"""
+import time
+from replication.casestudy.evaluate import executor
+from replication.casestudy.rundir import hold
+with hold({str(tmp_path / "run")!r}), executor("process", workers=2) as pool:
+    pool.submit(time.sleep, 0).result()
+    print(*(p.pid for p in pool._processes.values()), flush=True)
+    time.sleep(120)
+"""
+    with subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True) as child:
+        workers = [int(pid) for pid in child.stdout.readline().split()]
+        child.kill()
+    assert len(workers) == 2
+
+    try:
+        assert _wait_for(lambda: all(_ended(pid) for pid in workers)), "pool workers outlived their parent"
+    finally:
+        for pid in workers:  # never leave them behind, even when the test fails
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+
+    def free():
+        try:
+            with hold(tmp_path / "run"):
+                return True
+        except RunDirBusyError:
+            return False
+
+    assert _wait_for(free)
+
+
+def test_ctrl_c_as_a_fork_pool_starts_its_workers_does_not_hang():
+    """Ctrl-C inside the first submit, after the workers were forked but before the pool's
+    management thread: the command said "interrupted", then waited for them forever."""
+    script = """
+import concurrent.futures.process as P, multiprocessing, os, signal, sys
+from replication.casestudy.evaluate import executor
+launch = P.ProcessPoolExecutor._launch_processes
+def interrupted_launch(self):
+    launch(self)
+    os.kill(os.getpid(), signal.SIGINT)
+P.ProcessPoolExecutor._launch_processes = interrupted_launch
+try:
+    with executor("process", workers=2) as pool:
+        pool.submit(abs, -1).result()
+except KeyboardInterrupt:
+    print("left:", len(multiprocessing.active_children()), flush=True)
+    sys.exit(130)
+"""
+    with subprocess.Popen(
+        [sys.executable, "-c", script], stdout=subprocess.PIPE, text=True, start_new_session=True
+    ) as child:
+        try:
+            out, _ = child.communicate(timeout=60)
+        finally:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(child.pid, signal.SIGKILL)  # a hang's workers too
+    assert child.returncode == 130 and out.strip() == "left: 0", out
+
+
+def test_a_worker_terminated_while_it_starts_ends_without_a_traceback():
+    """SIGTERM (for instance its killed parent's) while a worker ran its initializer raised
+    SystemExit there, which concurrent.futures printed as "Exception in initializer" with a
+    traceback; until the worker is set up, SIGTERM now ends it at once."""
+    script = """
+import os, signal, replication.threadlimits as T
+from replication.casestudy.evaluate import executor
+T.limit_worker_blas = lambda: os.kill(os.getpid(), signal.SIGTERM)
+try:
+    with executor("process", workers=1) as pool:
+        pool.submit(abs, -1).result()
+except Exception as error:
+    print(type(error).__name__, flush=True)
+"""
+    result = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120, start_new_session=True
+    )
+    assert "BrokenProcessPool" in result.stdout, result.stdout + result.stderr
+    assert "Traceback" not in result.stderr and "initializer" not in result.stderr, result.stderr
+
+
+def test_an_orphaned_worker_that_swallows_the_signal_still_ends():
+    """The SystemExit that SIGTERM raises in an orphaned worker can be caught (concurrent.futures
+    catches everything while it sends a result back, and so may a task): the worker then
+    waited for its next task forever. It now ends ORPHAN_GRACE seconds after its parent."""
+    script = """
+import os, time
+from replication.casestudy.evaluate import executor
+
+def stubborn():
+    print(os.getpid(), flush=True)
+    try:
+        time.sleep(120)
+    except BaseException:
+        pass
+
+with executor("process", workers=1) as pool:
+    pool.submit(stubborn).result()
+"""
+    with subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True) as child:
+        worker = int(child.stdout.readline())
+        child.kill()
+    try:
+        assert _wait_for(lambda: _ended(worker)), "an orphaned worker outlived its grace"
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(worker, signal.SIGKILL)

@@ -134,3 +134,52 @@ def test_a_run_directory_in_use_is_refused_and_left_as_it_is(capsys, tmp_path, m
         assert sorted(p.name for p in run_dir.iterdir()) == [".lock", CONFIG_NAME]
     assert main(argv) == 0, capsys.readouterr().err  # free again: the second command runs
     assert (run_dir / "run-0.json").is_file()
+
+
+def test_ctrl_c_while_the_report_data_are_saved_keeps_the_previous_data_set(capsys, tmp_path, monkeypatch):
+    """A second case study into the same --output-dir, stopped as it wrote its provenance: the
+    first run's tables were already replaced, so `report` showed seed 6's runs under seed 5's
+    header. Now the previous data set stays whole and the hint finishes the second."""
+    import replication.report.casestudy as report_casestudy
+
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "mix"
+    first = ["casestudy", *TINY_ARGS, "--seed", "5", "--output-dir", str(out), "--run-dir", "r5"]
+    assert main(first) == 0
+    before = {p.name: p.read_bytes() for p in (out / "data").iterdir()}
+    real = report_casestudy.write_json
+
+    def ctrl_c(data, path):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(report_casestudy, "write_json", ctrl_c)
+    second = ["casestudy", *TINY_ARGS, "--seed", "6", "--output-dir", str(out), "--run-dir", "r6"]
+    assert main(second) == 130
+    err = capsys.readouterr().err
+    assert "interrupted while saving the data: every run is complete in r6" in err
+    assert {p.name: p.read_bytes() for p in (out / "data").iterdir()} == before
+    monkeypatch.setattr(report_casestudy, "write_json", real)
+    hint = shlex.split(err.split("save them with: ", 1)[1].splitlines()[0])
+    assert main(hint[1:]) == 0
+    provenance = json.loads((out / "data" / "casestudy_provenance.json").read_text())
+    assert provenance["config"]["seed"] == 6
+
+
+def test_ctrl_c_while_the_report_is_drawn_says_the_data_are_saved(capsys, tmp_path, monkeypatch):
+    def ctrl_c(out, workers=1):
+        raise KeyboardInterrupt
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("replication.report.casestudy.render_casestudy", ctrl_c)
+    argv = ["casestudy", *TINY_ARGS, "--seed", "6", "--output-dir", "out", "--run-dir", "r6"]
+    assert main(argv) == 130
+    err = capsys.readouterr().err
+    assert "interrupted while drawing the report: its data are saved in out/data" in err
+    hint = shlex.split(err.split("draw it with: ", 1)[1].splitlines()[0])
+    monkeypatch.undo()
+    monkeypatch.chdir(tmp_path)
+    assert hint == ["replication", "report", "--output-dir", "out"] and main(hint[1:]) == 0
+    assert (
+        json.loads((tmp_path / "out" / "data" / "casestudy_provenance.json").read_text())["config"]["seed"]
+        == 6
+    )

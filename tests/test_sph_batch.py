@@ -200,3 +200,39 @@ def test_bad_inputs_name_the_problem(tmp_path):
 def test_scored_is_ok_only_for_a_finished_simulation():
     assert Scored("a", "k", "ok", None, None, True, None).ok
     assert not Scored("a", "k", "timeout", "slow", None, False, None).ok
+
+
+def test_a_timeout_under_a_shorter_limit_is_simulated_again(tmp_path, monkeypatch):
+    # validate-jet --timeout 0.001 cached 3 timeouts that every later run, at the default
+    # 3600 s, reused as failures ("no simulation succeeded")
+    import sph_fake
+
+    monkeypatch.setattr(sph_fake, "FORCE_STATUS", "timeout")  # the fake takes 0.02 s of wall time
+    first = score([plate(1)], tmp_path, timeout=0.01)
+    assert first[0].status == "timeout" and CALLS == ["1"]
+    assert score([plate(1)], tmp_path, timeout=0.015)[0].cached  # a limit no longer: the same timeout
+    monkeypatch.setattr(sph_fake, "FORCE_STATUS", None)
+    again = score([plate(1)], tmp_path, timeout=60)
+    assert again[0].status == "ok" and not again[0].cached and CALLS == ["1", "1"]
+
+
+def test_an_entry_published_meanwhile_by_another_command_is_used(tmp_path, monkeypatch):
+    # two validate-jet commands on one cache: the rename into an entry the other had just published
+    # failed (Directory not empty) and was recorded as the simulation failing
+    import shutil
+
+    real_replace = sph_batch.os.replace
+    raced = []
+
+    def other_command_first(src, dst):
+        if not raced and Path(src).is_dir():  # the other command publishes its entry just before
+            raced.append(dst)
+            twin = Path(f"{src}-other")
+            shutil.copytree(src, twin)
+            real_replace(twin, dst)
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(sph_batch.os, "replace", other_command_first)
+    result = score([plate(1)], tmp_path)
+    assert raced and result[0].status == "ok" and result[0].result.mean_axial == 2.0
+    assert list(tmp_path.rglob(".*partial*")) == []

@@ -46,11 +46,18 @@ def check_scheduler_address(scheduler: str) -> str:
         raise InputError("dask evaluation needs the optional extra: pip install 'replication[dask]'") from exc
 
     try:
-        return resolve_address(scheduler)  # the syntax, and the host name
+        address = resolve_address(scheduler)  # the syntax, and the host name
+        if address.startswith("tcp://"):
+            from distributed.comm import get_address_host_port
+
+            port = get_address_host_port(address)[1]
+            if not 0 < port < 65536:  # was "Connection refused" for tcp://127.0.0.1:99999
+                raise ValueError(f"port {port} is not in 1..65535")
     except (ValueError, OSError) as exc:
         raise InputError(
             f"--scheduler {scheduler!r} is not a dask scheduler address like tcp://host:8786 ({exc})"
         ) from exc
+    return address
 
 
 def _connect(scheduler: str):  # type: ignore[no-untyped-def]
@@ -76,11 +83,14 @@ def _connect(scheduler: str):  # type: ignore[no-untyped-def]
             f"cannot reach a dask scheduler at {scheduler} within {CONNECT_TIMEOUT_S:g} s: is it running, "
             "and is the address right?"
         ) from exc
-    except Exception as exc:  # something answered, but not in dask's protocol
-        raise ExecutorError(
-            f"no dask scheduler at {scheduler}: something answers there but not in dask's protocol "
-            f"({type(exc).__name__})"
-        ) from exc
+    except Exception as exc:
+        why = " ".join(f"{type(exc).__name__}: {exc}".split())
+        if address.startswith("tcp://"):  # the port took a connection: something else listens there
+            raise ExecutorError(
+                f"no dask scheduler at {scheduler}: something answers there but not in dask's protocol "
+                f"({why})"
+            ) from exc
+        raise ExecutorError(f"cannot connect to a dask scheduler at {scheduler} ({why})") from exc
 
 
 #: Seconds between two looks at a local cluster's workers while Ctrl-C waits for their tasks.

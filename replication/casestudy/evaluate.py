@@ -18,6 +18,7 @@ import contextlib
 import gc
 import multiprocessing.resource_tracker
 import os
+import signal
 import time
 import warnings
 from collections.abc import Callable, Iterator, Sequence
@@ -27,7 +28,12 @@ import numpy as np
 
 from replication.casestudy.dispatch import Dispatcher, Outcome
 from replication.casestudy.ga import GAConfig, points_from_genome
-from replication.casestudy.interrupts import exit_on_terminate, ignore_interrupts, quiet_worker_context
+from replication.casestudy.interrupts import (
+    end_with_parent,
+    exit_on_terminate,
+    ignore_interrupts,
+    quiet_worker_context,
+)
 from replication.errors import DuplicatePointsWarning, InputError
 
 __all__ = [
@@ -145,17 +151,28 @@ def check_executor_options(kind: str, workers: int | None = None, scheduler: str
         check_scheduler_address(scheduler)
 
 
-def worker_initializer() -> None:
-    """Process-pool initializer: workers ignore SIGINT, unwind on SIGTERM, run one BLAS thread.
+def worker_initializer(parent: int | None = None) -> None:
+    """Process-pool initializer: workers ignore SIGINT, unwind on SIGTERM, run one BLAS thread,
+    end with ``parent`` (its pid) and drop the run-directory locks a fork copied.
 
     The parent decides when to stop (see :mod:`.interrupts`); the GA's parallelism is one
     evaluation per worker, so BLAS threads would only compete (see :mod:`replication.threadlimits`).
+    A parent killed outright left its workers waiting forever, holding its run directory's
+    lock (:func:`.interrupts.end_with_parent`, :func:`.rundir.close_inherited_locks`).
     """
+    from replication.casestudy.rundir import close_inherited_locks
     from replication.threadlimits import limit_worker_blas
 
     ignore_interrupts()
-    exit_on_terminate()
+    # Until the worker is set up, SIGTERM (its parent's death among others) ends it at once:
+    # there is nothing to unwind yet, and a SystemExit raised inside the initializer would be
+    # logged by concurrent.futures as a traceback on the user's terminal.
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if parent is not None:
+        end_with_parent(parent)
+    close_inherited_locks()
     limit_worker_blas()
+    exit_on_terminate()
 
 
 @contextlib.contextmanager
@@ -210,7 +227,10 @@ def executor(
     elif kind == "process":
         with _resource_tracker_stopped():
             pool = cf.ProcessPoolExecutor(
-                max_workers=n, mp_context=quiet_worker_context(), initializer=worker_initializer
+                max_workers=n,
+                mp_context=quiet_worker_context(),
+                initializer=worker_initializer,
+                initargs=(os.getpid(),),
             )
             interrupted = False
             try:
@@ -240,6 +260,11 @@ def _shut_down(pool: cf.ProcessPoolExecutor, announce: Callable[[], None] | None
     it, a second Ctrl-C in between escaped the guard, and the interpreter's exit then waited
     for the simulation under way (a hang of minutes, seen once in CI on a loaded machine).
     """
+    # Ctrl-C inside the first submit, after a fork pool started its workers but before its
+    # management thread: shutdown cannot reach them, and the interpreter's exit then waited for
+    # them forever (a hang after "interrupted"). Such workers are ended after the shutdown.
+    unmanaged = getattr(pool, "_executor_manager_thread", None) is None
+    processes = list((getattr(pool, "_processes", None) or {}).values())
     try:
         if announce is not None:
             announce()
@@ -247,6 +272,8 @@ def _shut_down(pool: cf.ProcessPoolExecutor, announce: Callable[[], None] | None
     except KeyboardInterrupt:
         _abandon(pool)
         raise
+    if unmanaged and processes:
+        _end(processes)
 
 
 def _abandon(pool: cf.ProcessPoolExecutor, grace: float = ABANDON_GRACE) -> None:
@@ -259,6 +286,14 @@ def _abandon(pool: cf.ProcessPoolExecutor, grace: float = ABANDON_GRACE) -> None
     may have closed its handles; it ends by itself once the workers are gone.
     """
     processes = list((getattr(pool, "_processes", None) or {}).values())  # (3.14: terminate_workers())
+    _end(processes, grace)
+    manager = getattr(pool, "_executor_manager_thread", None)
+    if manager is not None:
+        manager.join(grace)
+
+
+def _end(processes: list, grace: float = ABANDON_GRACE) -> None:
+    """Terminate worker processes (each unwinds, killing its simulation), then kill the slow."""
     for process in processes:
         with contextlib.suppress(Exception):
             process.terminate()
@@ -269,9 +304,6 @@ def _abandon(pool: cf.ProcessPoolExecutor, grace: float = ABANDON_GRACE) -> None
             if process.is_alive():
                 process.kill()
                 process.join()
-    manager = getattr(pool, "_executor_manager_thread", None)
-    if manager is not None:
-        manager.join(grace)
 
 
 @contextlib.contextmanager

@@ -47,7 +47,8 @@ def check_domain(points: np.ndarray, config: JetConfig, used: np.ndarray | None 
         raise InputError(
             f"surface vertex {index[i]} at ({x:.6g}, {y:.6g}, {z:.6g}) mm lies outside the domain "
             f"x 0..{length_mm:g}, y {y_lo:g}..{width_mm:g}, z 0..{depth_mm:g} mm "
-            f"({outside.size} vertices outside); enlarge the domain or set it to None"
+            f"({outside.size} vertices outside); enlarge the domain or do without one (domain=None; "
+            "--no-domain on the command line)"
         )
 
 

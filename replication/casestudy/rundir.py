@@ -75,9 +75,28 @@ def hold(run_dir: str | os.PathLike[str]) -> Iterator[Path]:
                 f"{run_dir} is in use by another command running the GA there; wait for it to end, or use "
                 "another run directory"
             ) from None
+        _HELD.add(fd)
         yield run_dir
     finally:
+        _HELD.discard(fd)
         os.close(fd)
+
+
+#: The descriptors of the locks this process holds (:func:`hold`).
+_HELD: set[int] = set()
+
+
+def close_inherited_locks() -> None:
+    """In a forked worker: close the run-directory locks inherited from the parent.
+
+    A forked child shares its parent's open lock, which stays held while any process keeps
+    it open: a worker outliving a killed parent kept the run directory locked. Closing the
+    child's copy leaves the parent's lock as it is.
+    """
+    for fd in list(_HELD):
+        with contextlib.suppress(OSError):
+            os.close(fd)
+    _HELD.clear()
 
 
 def checkpoints(run_dir: str | os.PathLike[str]) -> list[Path]:

@@ -201,11 +201,20 @@ def _simulate_into_cache(
             with contextlib.suppress(FileNotFoundError):
                 (scratch / name).unlink()
         shutil.rmtree(scratch / "engine", ignore_errors=True)
-        if final.exists():  # a failure being retried, or another process finished it first
-            if read_entry(cache_dir, key) is not None and read_entry(cache_dir, key).ok:
-                return read_result(final / "result.json")
-            shutil.rmtree(final)
-        os.replace(scratch, final)
+        for _ in range(3):
+            if final.exists():  # a failure being retried, or another process finished it first
+                published = read_entry(cache_dir, key)
+                if published is not None and published.ok:
+                    return read_result(final / "result.json")
+                shutil.rmtree(final, ignore_errors=True)
+            try:
+                os.replace(scratch, final)
+                break
+            except OSError:  # another command published the entry since the check: use it
+                if not final.exists():
+                    raise
+        else:
+            raise SimulationError(f"could not publish the simulation {key} into the cache {cache_dir}")
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
     return dataclasses.replace(result, run_dir=str(final))
@@ -285,6 +294,8 @@ def score_surfaces(
         if key in done or key in todo:
             continue
         result = read_entry(cache_dir, key)
+        if result is not None and result.status == "timeout" and result.wall_seconds < 0.99 * timeout:
+            result = None  # it timed out under a shorter limit than this run's: simulate it again
         if result is not None and (result.ok or not retry_failed):
             record(
                 Scored(task.name, key, result.status, result.reason, result, True, entry_path(cache_dir, key))
