@@ -331,3 +331,16 @@ def test_json_output_is_strict_even_for_numpy_nan(capsys):
 
     emit_json({"a": np.float64("nan"), "b": np.float32("inf"), "c": [np.int64(3)], "d": float("nan")})
     assert json.loads(capsys.readouterr().out) == {"a": None, "b": "inf", "c": [3], "d": None}
+
+
+def test_negative_numbers_in_scientific_notation_are_values(capsys):
+    # argparse took "-1e1" for an option: "expected 6 arguments", while "-10" worked
+    code, out, err = run(
+        capsys, "adt", "--random", "30", "--seed", "1", "--box", "-1e1", "1", "-.5E1", "1", "0", "9", "--json"
+    )
+    assert code == 0, err
+    assert json.loads(out)["box"] == [-10, 1, -5, 1, 0, 9]
+    code, out, err = run(
+        capsys, "adt", "--random", "30", "--seed", "1", "--box", "-10", "1", "-5", "1", "0", "9", "--json"
+    )
+    assert code == 0 and json.loads(out)["box"] == [-10, 1, -5, 1, 0, 9]

@@ -46,6 +46,8 @@ def no_experiment(monkeypatch):
         ["casestudy", *TINY, "--run-dir", "{file}"],
         ["casestudy", *TINY, "--run-dir", "{file}/sub"],
         ["table1", "--output-dir", "{file}/sub"],
+        ["casestudy", *TINY, "--rescore", "sph", "--cache-dir", "{file}", "--run-dir", "{tmp}/run"],
+        ["validate-jet", "--quick", "--cache-dir", "{file}", "--output-dir", "{tmp}/out"],
     ],
 )
 def test_output_or_run_dir_that_is_a_file(capsys, tmp_path, monkeypatch, no_experiment, argv):
@@ -115,7 +117,23 @@ def test_unreachable_scheduler_fails_fast_in_one_line(capsys, tmp_path, monkeypa
     assert list(tmp_path.iterdir()) == []  # the run directory it had created is gone again
 
 
-@pytest.mark.parametrize("address", ["notanaddress::", "tcp://host-without-port", "xyz://a:1"])
+def test_a_tls_scheduler_without_tls_settings_is_named_as_such(capsys, tmp_path, monkeypatch):
+    # was: "something answers there but not in dask's protocol", though nothing was contacted
+    pytest.importorskip("dask.distributed")
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run(capsys, "casestudy", *TINY[:6], "--scheduler", "tls://127.0.0.1:9")
+    last = err.splitlines()[-1]
+    assert (
+        code == 1
+        and last.startswith("replication casestudy: error: cannot connect")
+        and "TLS expects" in last
+    )
+    assert "not in dask's protocol" not in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize(
+    "address", ["notanaddress::", "tcp://host-without-port", "xyz://a:1", "tcp://127.0.0.1:99999"]
+)  # the last said "Connection refused"
 def test_malformed_scheduler_address_refused_before_work(
     capsys, tmp_path, monkeypatch, no_experiment, address
 ):
@@ -205,6 +223,21 @@ def test_report_readme_problems(capsys, report_copy, tmp_path):
 def test_report_without_a_reports_directory(capsys, tmp_path):
     code, _, err = run(capsys, "report", "--output-dir", tmp_path / "none")
     assert code == 1 and one_line(err, "report") and "does not exist" in err
+
+
+def test_report_into_a_directory_where_no_file_can_be_created(capsys, tmp_path, monkeypatch):
+    # was: "unexpected PermissionError" from the first figure written, after rendering began
+    # (root ignores permission bits, so the refusal of the probe file is simulated)
+    import replication.io.paths as paths
+
+    def refuse(*args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(paths.tempfile, "TemporaryFile", refuse)
+    (tmp_path / "data").mkdir()
+    code, _, err = run(capsys, "report", "--output-dir", tmp_path)
+    assert code == 1 and one_line(err, "report") and "is not writable: Permission denied" in err, err
+    assert [p.name for p in tmp_path.iterdir()] == ["data"]
 
 
 # ---- surfaces -------------------------------------------------------------------------------------
@@ -361,3 +394,24 @@ def test_a_closed_pipe_ends_the_command_quietly(capsys, monkeypatch):
     monkeypatch.setattr(sys, "stdout", Closed())
     assert main(["adt", "--random", "20", "--seed", "1", "--json"]) == 141
     assert capsys.readouterr().err == ""
+
+
+def test_report_says_which_tables_lack_their_provenance(capsys, tmp_path):
+    # a save killed while it published its files leaves them without provenance: say so, do not skip silently
+    (tmp_path / "data").mkdir()
+    (tmp_path / "data" / "sph_runs.csv").write_text("a\n1\n")
+    code, _, err = run(capsys, "report", "--output-dir", tmp_path)
+    assert code == 1 and "holds sph tables without their provenance" in err
+    assert "run `replication sph` again" in err and "no report data under" in err
+
+
+def test_ctrl_c_while_the_command_line_is_parsed_is_one_line(capsys, monkeypatch):
+    # Ctrl-C in the first second (the command's module being imported) printed a traceback
+    import replication.cli as cli
+
+    def interrupted(commands=None):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "build_parser", interrupted)
+    assert cli.main(["casestudy", "--quick"]) == 130
+    assert capsys.readouterr().err == "replication casestudy: interrupted\n"

@@ -52,6 +52,35 @@ def test_surface_file_json_matches_the_library(capsys, tmp_path):
     assert report["jet"]["center_mm"] == [18.0, 0.0] and report["jet"]["diameter_mm"] == 18.0
 
 
+def test_json_keys_of_the_two_solvers_agree(capsys, bucket_csv, tmp_path, monkeypatch):
+    # the thin-sheet JSON lacked "solver" and "over_rho_q_v", the SPH JSON the jet's domain
+    import replication.casestudy.sph as sph
+    from tests.sph_fake import fake_sph
+
+    monkeypatch.setattr(sph, "require_engine", lambda: None)
+    monkeypatch.setattr(sph, "sph_force", lambda *a, progress=None, **k: fake_sph(*a, **k))
+    code, out, _ = run(capsys, "force", str(bucket_csv), "--json")
+    sheet = json.loads(out)
+    code_sph, out, _ = run(
+        capsys,
+        "force",
+        str(bucket_csv),
+        "--solver",
+        "sph",
+        "--run-dir",
+        str(tmp_path / "run"),
+        "--json",
+    )
+    sph_json = json.loads(out)
+    assert code == code_sph == 0 and sheet["solver"] == "sheet" and sph_json["solver"] == "sph"
+    shared = ["input", "vertices", "triangles", "points_merged", "jet", "momentum_flux_N"]
+    assert {k: sheet[k] for k in shared} == {k: sph_json[k] for k in shared}
+    assert sheet["jet"]["domain_mm"] == [36.0, 30.0, 13.0]
+    for report in (sheet, sph_json):
+        assert report["over_rho_q_v"] == pytest.approx(report["axial_force_N"] / report["momentum_flux_N"])
+        assert report["force_N"][2] == pytest.approx(-report["axial_force_N"])
+
+
 def test_full_jet_options(capsys, tmp_path):
     cloud = pelton_bucket_cloud()
     both = np.vstack([cloud, cloud[cloud[:, 1] > 0] * [1, -1, 1]])
@@ -122,3 +151,38 @@ def test_an_sph_run_directory_that_holds_the_input_is_refused(capsys, tmp_path, 
     ):
         run(capsys, "force", str(path), "--solver", "sph", "--run-dir", str(run_dir))
     assert path.read_bytes() == before
+
+
+def test_a_duration_with_no_window_is_refused_before_the_run_dir_is_made(capsys, bucket_csv, tmp_path):
+    # was: an empty --run-dir left behind (and a 0 % progress bar) before the refusal
+    with pytest.raises(InputError, match="leaves no quasi-steady window"):
+        run(
+            capsys,
+            "force",
+            str(bucket_csv),
+            "--solver",
+            "sph",
+            "--duration",
+            "1",
+            "--run-dir",
+            str(tmp_path / "r"),
+        )
+    assert not (tmp_path / "r").exists() and capsys.readouterr().err == ""
+
+
+def test_sound_speed_without_wcsph_is_refused(capsys, bucket_csv):
+    # the default DFSPH has no speed of sound: the option was ignored without a word
+    with pytest.raises(InputError, match="--sound-speed applies only with --sph-method wcsph"):
+        run(capsys, "force", str(bucket_csv), "--solver", "sph", "--sound-speed", "5")
+
+
+def test_a_run_dir_in_use_by_another_force_command_is_refused(capsys, bucket_csv, tmp_path, monkeypatch):
+    # two simulations writing one --run-dir at once: one said "ok" with a NaN force
+    import replication.casestudy.sph as sph
+    from replication.casestudy.rundir import hold
+    from tests.sph_fake import fake_sph
+
+    monkeypatch.setattr(sph, "require_engine", lambda: None)
+    monkeypatch.setattr(sph, "sph_force", lambda *a, progress=None, **k: fake_sph(*a, **k))
+    with hold(tmp_path / "r"), pytest.raises(InputError, match="--run-dir .*r is in use by another command"):
+        run(capsys, "force", str(bucket_csv), "--solver", "sph", "--run-dir", str(tmp_path / "r"))

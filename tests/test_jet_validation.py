@@ -233,12 +233,30 @@ def test_without_a_cache_reproduce_re_renders_the_saved_study_and_leaves_its_dat
     assert path is None and ("validate-jet" in note or "not installed" in note)  # (with or without SPH)
 
 
-@needs_engine
-def test_from_cache_fails_naming_what_is_missing(tmp_path, capsys):
+def test_from_cache_fails_naming_what_is_missing(tmp_path, capsys, monkeypatch):
+    # before any work: an empty cache ran the study's GAs first (seconds to minutes)
+    import replication.experiments.jet_surface_set as surface_set
+
+    monkeypatch.setattr(surface_set, "build_surfaces", lambda *a, **k: pytest.fail("surfaces built"))
     argv = ["validate-jet", "--quick", "--from-cache", "--cache-dir", str(tmp_path / "empty"),
             "--output-dir", str(tmp_path / "out")]  # fmt: skip
     assert main(argv) == 1
-    assert "missing from the cache: run without --from-cache" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "missing from the cache: run without --from-cache" in err and len(err.splitlines()) == 1, err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_from_cache_with_a_cache_dir_that_is_a_file(tmp_path, capsys):
+    # was: "unexpected NotADirectoryError" (without --from-cache: tests/test_cli_errors.py)
+    (tmp_path / "afile").write_text("x")
+    argv = ["validate-jet", "--quick", "--from-cache", "--cache-dir", str(tmp_path / "afile"),
+            "--output-dir", str(tmp_path / "out")]  # fmt: skip
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert (
+        "--cache-dir" in err and "afile is a file, not a directory" in err and len(err.splitlines()) == 1
+    ), err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
 
 
 def test_the_asv_benchmark_tracks_the_models_spearman_against_the_saved_study(
@@ -262,3 +280,38 @@ def test_the_asv_benchmark_tracks_the_models_spearman_against_the_saved_study(
     bench.data_dir = tmp_path / "nothing here"
     with pytest.raises(NotImplementedError, match="no committed SPH study data"):
         bench.setup()
+
+
+@pytest.mark.parametrize(
+    ("extra", "named"), [(["--timeout", "1"], "--timeout 1"), (["--ga-run-dir", "ga"], "--ga-run-dir ga")]
+)
+def test_a_study_with_other_settings_does_not_replace_the_committed_report(
+    tmp_path, capsys, monkeypatch, extra, named
+):
+    # was: validate-jet --timeout 1 replaced reports/jet_validation.md (and the README headline)
+    # with a study of 0 surfaces
+    monkeypatch.chdir(tmp_path)
+    assert main(["validate-jet", *extra, "--cache-dir", "cache"]) == 1
+    err = capsys.readouterr().err
+    assert f"with {named} the study may differ from the committed one in reports/" in err
+    assert "--output-dir reports to replace it" in err and len(err.splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_study_in_which_no_simulation_succeeded_writes_nothing(tmp_path, capsys, monkeypatch):
+    # was: exit 0 and a report (and README headline) of 0 surfaces, Spearman nan
+    import replication.casestudy.sph as sph_package
+    import sph_fake
+
+    monkeypatch.setattr(sph_package, "require_engine", lambda: "2.19.0")
+    monkeypatch.setattr(sph_package, "sph_force", fake_sph)
+    monkeypatch.setattr(sph_fake, "FORCE_STATUS", "timeout")
+    out = tmp_path / "out"
+    argv = ["validate-jet", "--quick", "--executor", "serial", "--cache-dir", str(tmp_path / "cache"),
+            "--output-dir", str(out)]  # fmt: skip
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "error: no simulation succeeded (" in err and " timeout" in err and "nothing was written" in err, (
+        err
+    )
+    assert not out.exists()

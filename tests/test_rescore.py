@@ -307,3 +307,20 @@ def test_solver_sph_prints_its_estimate_and_refuses_more_than_an_hour_without_ye
     err = capsys.readouterr().err
     assert "1e+03 s per simulation x at most 12 evaluations / 1 worker(s) = at most 3.33 h" in err
     assert "exceeds 1 h: pass --yes" in err and not (tmp_path / "run" / "run-0.json").exists()
+
+
+@pytest.mark.parametrize("sph", [["--rescore", "sph"], ["--rescore", "sph", "--particle-radius", "3"]])
+def test_rescore_at_the_papers_settings_reports_into_its_run_dir(tmp_path, monkeypatch, fake_engine, sph):
+    # was: the committed reports/casestudy.md gained the re-scored section (the committed study has none)
+    from replication.cli import build_parser
+    from replication.cli.casestudy import plan_casestudy
+
+    monkeypatch.chdir(tmp_path)
+    args = build_parser(["casestudy"]).parse_args(["casestudy", "--run-dir", "run", *sph])
+    plan = plan_casestudy(args)
+    assert plan.config == GAConfig() and str(plan.out) == "run/report"
+    assert plan.note.startswith("--rescore sph: the report goes to run/report/, not reports/")
+    explicit = build_parser(["casestudy"]).parse_args(
+        ["casestudy", "--run-dir", "run", *sph, "--output-dir", "reports"]
+    )
+    assert str(plan_casestudy(explicit).out) == "reports"

@@ -13,6 +13,7 @@ import argparse
 import contextlib
 import importlib
 import os
+import re
 import shlex
 import sys
 from collections.abc import Callable, Iterable, Sequence
@@ -21,6 +22,7 @@ from replication.errors import ReplicationError
 
 __all__ = ["COMMANDS", "build_parser", "main", "run"]
 
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$", re.IGNORECASE)
 DEBUG_HELP = "on an unexpected error, show the full Python traceback"
 
 #: Every command: the module whose ``register`` adds its parser, and its one-line help. The
@@ -98,6 +100,9 @@ def build_parser(commands: Iterable[str] | None = None) -> argparse.ArgumentPars
             sub.add_parser(name, help=helptext, add_help=False)
     for command in sub.choices.values():  # also accepted after the command: replication adt ... --debug
         command.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=DEBUG_HELP)
+        # argparse takes "-1e1" for an option (its pattern of negative numbers has no exponent):
+        # --box -1e1 10 ... failed with "expected 6 arguments" while -10 worked
+        command._negative_number_matcher = NEGATIVE_NUMBER
     return parser
 
 
@@ -130,8 +135,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``replication`` command; returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
     command = _command(argv)
-    parser = build_parser([command] if command in COMMANDS else [])
-    args = parser.parse_args(argv)
+    try:  # building the parser imports the command's module: a second or so
+        parser = build_parser([command] if command in COMMANDS else [])
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt:  # was a traceback: main's handlers below did not cover it yet
+        print(f"replication{f' {command}' if command in COMMANDS else ''}: interrupted", file=sys.stderr)
+        return 130
     args.invocation = shlex.join(["replication", *argv])
     func: Callable[[argparse.Namespace], int] = args.func
     name = f"replication {args.command}"

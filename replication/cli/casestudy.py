@@ -6,7 +6,8 @@ the reports directory. ``--resume`` takes the run's settings from its ``config.j
 settings given explicitly are compared with them. Where the report goes: ``--output-dir``
 when given; else ``reports/`` for the paper's settings, ``reports-quick/`` for the
 ``--quick`` settings, and the run's own directory (``RUN_DIR/report/``) for any other
-settings, so that a trial run never overwrites the committed paper report.
+settings or an SPH fitness (``--rescore sph``, ``--solver sph``), so that a trial run never
+overwrites the committed paper report.
 """
 
 from __future__ import annotations
@@ -58,8 +59,8 @@ stopped, with the settings recorded in the run directory, and ends exactly as an
 uninterrupted run would. Settings given together with --resume must match the recorded ones.
 
 The report goes to {DEFAULT_DIR}/ only for the paper's settings ({QUICK_DIR}/ with --quick); a run
-with other settings reports into its run directory (RUN_DIR/report/), unless --output-dir names
-a directory.
+with other settings, or with --rescore sph or --solver sph, reports into its run directory
+(RUN_DIR/report/), unless --output-dir names a directory.
 
 --rescore sph simulates the best distinct surfaces of each run, the flat plate and the bucket
 by SPH (the fitness of record: the thin-sheet model ranks cup-like surfaces unlike SPH) on the
@@ -189,10 +190,12 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
             state = load_run(run_dir, k, config)
             done += 0 if state is None else state.generation
     default_out, note = _default_report_dir(config, run_dir)
-    if solver is not None and not note:  # the committed reports are the thin-sheet GA's
+    rescored = getattr(args, "rescore", None) is not None
+    sph_option = "--solver sph" if solver is not None else "--rescore sph" if rescored else None
+    if sph_option and not note:  # the committed reports are the thin-sheet GA's, not re-scored
         default_out = run_dir / "report"
         note = (
-            f"--solver sph: the report goes to {default_out}/, not {DEFAULT_DIR}/ (name a directory with "
+            f"{sph_option}: the report goes to {default_out}/, not {DEFAULT_DIR}/ (name a directory with "
             "--output-dir)"
         )
     out = Path(args.output_dir) if args.output_dir else default_out
@@ -255,8 +258,25 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
         except BaseException:
             remove_unused_run_dir(plan.run_dir, plan.created)
             raise
-    save_casestudy_data(results, plan.out)
-    return results, render_casestudy(plan.out, workers=_workers(args))
+    try:
+        save_casestudy_data(results, plan.out)
+    except KeyboardInterrupt:
+        print(
+            f"interrupted while saving the data: every run is complete in {plan.run_dir} and the "
+            f"previous data in {plan.out / 'data'} are as they were; save them with: {plan.hint}",
+            file=sys.stderr,
+        )
+        raise
+    try:
+        return results, render_casestudy(plan.out, workers=_workers(args))
+    except KeyboardInterrupt:
+        command = shlex.join(["replication", "report", "--output-dir", str(plan.out)])
+        print(
+            f"interrupted while drawing the report: its data are saved in {plan.out / 'data'}; "
+            f"draw it with: {command}",
+            file=sys.stderr,
+        )
+        raise
 
 
 def _workers(args: argparse.Namespace) -> int:
@@ -341,7 +361,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--output-dir",
         metavar="DIR",
         help=f"reports directory (default: {DEFAULT_DIR}/ for the paper's settings, {QUICK_DIR}/ for "
-        "--quick, else RUN_DIR/report/)",
+        "--quick, else, or with --rescore sph or --solver sph, RUN_DIR/report/)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object with the results")
     add_rescore_options(p)

@@ -97,7 +97,10 @@ def rescore_config(args: argparse.Namespace, config: Any) -> Any:
     from replication.casestudy.rescore import RescoreConfig
     from replication.casestudy.sph.settings import SPHSettings, timeline
     from replication.casestudy.sph_batch import default_cache_dir
+    from replication.io.paths import check_writable_dir
 
+    cache = Path(args.cache_dir) if args.cache_dir else default_cache_dir()
+    check_writable_dir(cache, "--cache-dir" if args.cache_dir else "the SPH cache")
     sph.require_engine()
     changes: dict[str, Any] = {}
     if args.particle_radius is not None:
@@ -106,7 +109,6 @@ def rescore_config(args: argparse.Namespace, config: Any) -> Any:
         changes["duration"] = args.duration / 1000.0  # ms -> s
     settings = SPHSettings(**changes)
     timeline(settings, config.jet.velocity, config.jet.diameter)  # a duration with no window: refuse now
-    cache = Path(args.cache_dir) if args.cache_dir else default_cache_dir()
     return RescoreConfig(
         top=5 if args.top is None else args.top,
         settings=settings,

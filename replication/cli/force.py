@@ -52,7 +52,7 @@ def _load(path: str) -> tuple[Any, Any, str, int]:
 
 def _cmd_force(args: argparse.Namespace) -> int:
     from replication.casestudy import JetConfig, jet_force
-    from replication.casestudy.units import to_metres, to_millimetres
+    from replication.casestudy.units import to_metres
     from replication.cli.sph import check_force_options, force_sph
     from replication.errors import InputError
 
@@ -82,8 +82,9 @@ def _cmd_force(args: argparse.Namespace) -> int:
     )
     with relay_warnings():
         points, triangles, what, merged = _load(args.input)
+    shared = shared_report(args, config, points, triangles, merged)
     if args.solver == "sph":
-        return force_sph(args, config, points, triangles, what, merged)
+        return force_sph(args, config, points, triangles, what, shared)
     # load the compiled kernels first (once per process), so the time is one evaluation's
     jet_force([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], JetConfig(domain=None), resolution=1)
     start = time.perf_counter()
@@ -96,20 +97,9 @@ def _cmd_force(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     report: dict[str, Any] = {
-        "input": args.input,
-        "vertices": int(points.shape[0]),
-        "triangles": int(triangles.shape[0]),
-        "points_merged": merged,
-        "jet": {
-            "center_mm": list(args.center),
-            "diameter_mm": args.diameter,
-            "velocity_m_s": config.velocity,
-            "density_kg_m3": config.density,
-            "full_jet": config.full_jet,
-            "domain_mm": None if domain is None else [round(v, 9) for v in to_millimetres(domain).tolist()],
-        },
+        **shared,
         **result.as_dict(),
-        "momentum_flux_N": config.momentum_flux,
+        "over_rho_q_v": result.axial_force / config.momentum_flux,
         "evaluation_seconds": seconds,
     }
     if args.json:
@@ -133,6 +123,38 @@ def _cmd_force(args: argparse.Namespace) -> int:
     if merged:
         print(f"merged {merged} point(s) sharing an (x, y) position (mean height)")
     return 0
+
+
+def shared_report(
+    args: argparse.Namespace, config: Any, points: Any, triangles: Any, merged: int
+) -> dict[str, Any]:
+    """The keys that ``force --json`` prints for both solvers, the input and jet alike.
+
+    Each solver adds ``force_N``, ``axial_force_N`` and ``over_rho_q_v`` (the axial force over
+    the jet's momentum flux rho Q V), then its own details.
+    """
+    from replication.casestudy.units import to_millimetres
+
+    return {
+        "input": args.input,
+        "solver": args.solver,
+        "vertices": int(points.shape[0]),
+        "triangles": int(triangles.shape[0]),
+        "points_merged": merged,
+        "jet": {
+            "center_mm": list(args.center),
+            "diameter_mm": args.diameter,
+            "velocity_m_s": config.velocity,
+            "density_kg_m3": config.density,
+            "full_jet": config.full_jet,
+            "domain_mm": (
+                None
+                if config.domain is None
+                else [round(v, 9) for v in to_millimetres(config.domain).tolist()]
+            ),
+        },
+        "momentum_flux_N": config.momentum_flux,
+    }
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -61,6 +62,24 @@ def _render(render: Callable[[Path], Any], name: str, out: Path) -> Any:
         ) from exc
 
 
+#: Each experiment's data: the prefix of its files, and the command that makes them.
+EXPERIMENTS = (
+    ("table1", "table1"),
+    ("sph", "sph"),
+    ("jet_validation", "validate-jet"),
+    ("casestudy", "casestudy"),
+)
+
+
+def _without_provenance(data: Path) -> list[tuple[str, str]]:
+    """The experiments whose tables lie in ``data`` without their provenance (see ``store.data_set``)."""
+    return [
+        (prefix, command)
+        for prefix, command in EXPERIMENTS
+        if not (data / f"{prefix}_provenance.json").is_file() and any(data.glob(f"{prefix}_*.csv"))
+    ]
+
+
 def _check_readme(readme: str, out: Path) -> Path:
     from replication.errors import InputError
     from replication.io.paths import check_distinct
@@ -91,7 +110,7 @@ def _check_readme(readme: str, out: Path) -> Path:
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from replication.errors import ReportDataError
-    from replication.io.paths import same_file
+    from replication.io.paths import check_writable_dir, same_file
     from replication.report.casestudy import render_casestudy
     from replication.report.index import update_readme
     from replication.report.table1 import render_table1
@@ -100,6 +119,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     if not out.is_dir():
         what = "is a file" if out.exists() else "does not exist"
         raise ReportDataError(f"reports directory {out} {what}: run `replication reproduce` first")
+    check_writable_dir(out, "--output-dir" if args.output_dir else "the reports directory")
     readme = _check_readme(args.readme, out) if args.readme else None
     written = []
     if args.performance:
@@ -118,6 +138,12 @@ def _cmd_report(args: argparse.Namespace) -> int:
         written.append(_render(render_jet_validation, "validate-jet", out))
     if (out / "data" / "casestudy_provenance.json").is_file():
         written.append(_render(render_casestudy, "casestudy", out))
+    for experiment, command in _without_provenance(out / "data"):
+        print(
+            f"warning: {out / 'data'} holds {experiment} tables without their provenance (a save that was "
+            f"cut short), so no {experiment} report was drawn from them: run `replication {command}` again",
+            file=sys.stderr,
+        )
     if not written:
         raise ReportDataError(f"no report data under {out / 'data'}: run `replication reproduce` first")
     finished = _render(finish_reports, "reproduce", out)  # the index, and a checkout's README

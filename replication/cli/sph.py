@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -76,7 +78,8 @@ def _settings(args: argparse.Namespace) -> Any:
 
 
 def check_force_options(args: argparse.Namespace) -> None:
-    """Refuse SPH options without ``--solver sph``, and a ``--run-dir`` that holds INPUT."""
+    """Refuse SPH options without ``--solver sph``, ``--sound-speed`` without ``--sph-method
+    wcsph``, and a ``--run-dir`` that holds INPUT."""
     from pathlib import Path
 
     from replication.errors import InputError
@@ -86,9 +89,17 @@ def check_force_options(args: argparse.Namespace) -> None:
         if given:
             flag = "--" + given[0].replace("_", "-")
             raise InputError(f"{flag} applies only with --solver sph")
+    if getattr(args, "sound_speed", None) is not None and args.sph_method != "wcsph":
+        raise InputError(
+            "--sound-speed applies only with --sph-method wcsph (the default dfsph is incompressible: "
+            "it has no speed of sound)"
+        )
     source = getattr(args, "input", None)
     if getattr(args, "run_dir", None) and source:
-        run_dir, path = Path(args.run_dir).resolve(), Path(source).resolve()
+        try:
+            run_dir, path = Path(args.run_dir).resolve(), Path(source).resolve()
+        except (OSError, RuntimeError) as exc:  # RuntimeError: a loop of symbolic links (Python 3.11)
+            raise InputError(f"--run-dir {args.run_dir}: cannot follow the symbolic link ({exc})") from exc
         if run_dir == path or run_dir in path.parents:  # the engine's files (steps.csv, ...) go there
             raise InputError(
                 f"--run-dir {args.run_dir} holds INPUT {source}: the simulation writes its files there "
@@ -96,17 +107,42 @@ def check_force_options(args: argparse.Namespace) -> None:
             )
 
 
+@contextlib.contextmanager
+def _run_dir_held(run_dir: str | None) -> Iterator[None]:
+    """Hold ``--run-dir`` for this command: two simulations writing one directory's files at
+    once gave "ok" with a NaN force (a second command is refused instead)."""
+    from replication.casestudy.rundir import RunDirBusyError, hold
+    from replication.errors import InputError
+
+    if run_dir is None:
+        yield
+        return
+    try:
+        with hold(run_dir):
+            yield
+    except RunDirBusyError:
+        raise InputError(
+            f"--run-dir {run_dir} is in use by another command; use a directory of its own"
+        ) from None
+
+
 def force_sph(
-    args: argparse.Namespace, config: Any, points: Any, triangles: Any, what: str, merged: int
+    args: argparse.Namespace, config: Any, points: Any, triangles: Any, what: str, shared: dict[str, Any]
 ) -> int:
-    """``replication force --solver sph``: simulate, print the result (or one JSON object)."""
+    """``replication force --solver sph``: simulate, print the result (or one JSON object).
+
+    ``shared`` holds the input's and the jet's keys of the JSON object, as the thin-sheet
+    model prints them (:func:`replication.cli.force.shared_report`).
+    """
     from replication.casestudy.sph import DEFAULT_TIMEOUT, require_engine, sph_force
+    from replication.casestudy.sph.settings import timeline
     from replication.cli.progress import progress as show_progress
 
-    require_engine()
     settings = _settings(args)
+    timeline(settings, config.velocity, config.diameter)  # a duration with no window: refuse first
+    require_engine()
     total_ms = round(1e3 * settings.duration)
-    with show_progress(total_ms, "SPH simulated time (ms)") as bar:
+    with _run_dir_held(args.run_dir), show_progress(total_ms, "SPH simulated time (ms)") as bar:
 
         def progress(t: float) -> None:
             reached = min(int(1e3 * t), total_ms)
@@ -123,7 +159,13 @@ def force_sph(
             progress=progress,
         )
     result.check()
-    report = sph_report(args, config, points, triangles, merged, result)
+    if not math.isfinite(result.mean_axial):  # never "ok" with no force (files changed under it?)
+        from replication.errors import SimulationError
+
+        raise SimulationError(
+            f"the SPH simulation ended without a force over its averaging window (files in {result.run_dir})"
+        )
+    report = sph_report(shared, result)
     if args.json:
         emit_json(report)
         return 0
@@ -156,28 +198,16 @@ def force_sph(
     )
     if args.run_dir:
         print(f"files (scene, engine log, steps.csv, series.csv, result.json) in {result.run_dir}")
-    if merged:
+    if merged := shared["points_merged"]:
         print(f"merged {merged} point(s) sharing an (x, y) position (mean height)")
     return 0
 
 
-def sph_report(
-    args: argparse.Namespace, config: Any, points: Any, triangles: Any, merged: int, result: Any
-) -> dict:
-    """The JSON object of ``replication force --solver sph --json``."""
+def sph_report(shared: dict[str, Any], result: Any) -> dict[str, Any]:
+    """The JSON object of ``replication force --solver sph --json``: the keys shared with the
+    thin-sheet model, then the simulation's."""
     return {
-        "input": args.input,
-        "solver": "sph",
-        "vertices": int(points.shape[0]),
-        "triangles": int(triangles.shape[0]),
-        "points_merged": merged,
-        "jet": {
-            "center_mm": list(args.center),
-            "diameter_mm": args.diameter,
-            "velocity_m_s": config.velocity,
-            "density_kg_m3": config.density,
-            "full_jet": config.full_jet,
-        },
+        **shared,
         "axial_force_N": result.mean_axial,
         "force_N": [float(v) for v in result.mean_force],
         "momentum_flux_N": result.momentum_flux,

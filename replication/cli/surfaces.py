@@ -28,7 +28,8 @@ NURBS_KINDS = {"smesh": "compact smesh, ASCII", "json": "geomdl JSON"}
 EPILOG_ADT = """\
 examples:
   replication adt cloud.csv -o surface.vtk
-      triangulate your own cloud (csv/txt/xyz with 3 columns, or .npy)
+      triangulate your own cloud (csv/txt/xyz with 3 columns x y z, or as a header names them;
+      or .npy)
   replication adt --random 200 --seed 1 --step 1 -o surface.vtp --save-cloud cloud.csv
       a random 200-point cloud on a 1 mm lattice in the case-study box, kept in cloud.csv
   replication adt sphere.xyz --split z=0 -o closed.vtk

@@ -28,6 +28,7 @@ cached simulations into misses; --rebuild-surfaces builds them afresh.
 def _cmd_validate(args: argparse.Namespace) -> int:
     from replication.cli.outputs import finish_reports, planned_output_dir
 
+    _check_custom_run(args)
     out = planned_output_dir(args)
     start = time.perf_counter()
     results, path = run_validation_report(args, out)
@@ -45,6 +46,32 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     for readme in written[1:]:
         print(f"refreshed the headline block of {readme} from {out}/data (the reports beside it)")
     return 0
+
+
+def _check_custom_run(args: argparse.Namespace) -> None:
+    """Refuse to let a study with other settings replace the committed one by default.
+
+    ``reports/jet_validation.md`` is the study at its own settings; ``--timeout`` or another
+    GA's winners (``--ga-run-dir``) can give another study, which goes where ``--output-dir``
+    says (``--output-dir reports`` replaces the committed one knowingly).
+    """
+    from replication.cli.outputs import DEFAULT_DIR
+    from replication.errors import InputError
+    from replication.experiments.jet_validation import ValidationConfig
+
+    if args.output_dir is not None or args.quick:
+        return
+    custom = []
+    simulates = not args.from_cache  # --from-cache simulates nothing: a timeout has no effect
+    if simulates and args.timeout is not None and args.timeout != ValidationConfig().timeout:
+        custom.append(f"--timeout {args.timeout:g}")
+    if args.ga_run_dir is not None:
+        custom.append(f"--ga-run-dir {args.ga_run_dir}")
+    if custom:
+        raise InputError(
+            f"with {' and '.join(custom)} the study may differ from the committed one in {DEFAULT_DIR}/: "
+            f"name a report directory with --output-dir (--output-dir {DEFAULT_DIR} to replace it)"
+        )
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -107,6 +134,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--output-dir",
         metavar="DIR",
-        help=f"where the report, figures and data go (default {DEFAULT_DIR}/, or {QUICK_DIR}/ with --quick)",
+        help=(
+            f"where the report, figures and data go (default {DEFAULT_DIR}/, or {QUICK_DIR}/ with --quick; "
+            "required with --timeout or --ga-run-dir, which can give another study than the committed one)"
+        ),
     )
     p.set_defaults(func=_cmd_validate)

@@ -38,9 +38,10 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
     from replication.experiments.jet_validation import run_validation
     from replication.report.jet_validation import render_jet_validation, save_jet_validation_data
 
-    require_engine()
     config = _config(args)
     cache = Path(args.cache_dir) if args.cache_dir else default_cache_dir()
+    _check_cache(cache, config, args)
+    require_engine()
     print(f"SPH cache: {cache} (a rerun skips every finished simulation)", file=sys.stderr)
     bar: Any = None
 
@@ -84,11 +85,41 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
     finally:
         if bar is not None:
             bar.close()
-    missing = int((results.surfaces["sph_status"] == "missing").sum())
+    status = results.surfaces["sph_status"]
+    missing = int((status == "missing").sum())
     if missing and args.from_cache:
         raise SimulationError(f"{missing} simulation(s) missing from the cache: run without --from-cache")
+    if not (status == "ok").any():  # a study of nothing must not replace a report
+        counts = ", ".join(f"{n} {name}" for name, n in status.value_counts().items())
+        raise SimulationError(
+            f"no simulation succeeded ({counts}); nothing was written (see the reasons above; "
+            "--retry-failed simulates the failed ones again)"
+        )
     save_jet_validation_data(results, out)
     return results, render_jet_validation(out)
+
+
+def _check_cache(cache: Path, config: Any, args: argparse.Namespace) -> None:
+    """Refuse, before any work, a cache that is a file or (with --from-cache) that lacks the study.
+
+    Without its stored surface set, ``--from-cache`` would first run the study's GAs only to
+    find every simulation missing.
+    """
+    from replication.errors import InputError, SimulationError
+    from replication.experiments.jet_surface_set import set_path
+    from replication.io.paths import check_writable_dir
+
+    what = "--cache-dir" if args.cache_dir else "the SPH cache"
+    if args.from_cache:
+        if cache.exists() and not cache.is_dir():
+            raise InputError(f"{what} {cache} is a file, not a directory")
+        if not args.rebuild_surfaces and not set_path(cache, config).is_file():
+            raise SimulationError(
+                f"the study's surfaces and simulations are missing from the cache: run without "
+                f"--from-cache (the cache {cache} holds no surface set of this study)"
+            )
+    else:
+        check_writable_dir(cache, what)
 
 
 def reproduce_stage(out: Path, quick: bool, command: str) -> tuple[Path | None, str]:
