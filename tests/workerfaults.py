@@ -53,7 +53,8 @@ def pickled_by_value(*modules):
 #: A stand-in for the SPH driver: records its process id, sleeps, and marks that it finished.
 SLEEPING_DRIVER = (
     "import os, sys, time; run_dir = sys.argv[2]; "
-    "open(os.path.join(run_dir, 'pid'), 'w').write(str(os.getpid())); "
+    "pid = os.path.join(run_dir, 'pid'); open(pid + '.part', 'w').write(str(os.getpid())); "
+    "os.replace(pid + '.part', pid); "  # whole or absent: the tests read it as soon as it exists
     "time.sleep(float(sys.argv[1])); open(os.path.join(run_dir, 'finished'), 'w').close()"
 )
 
@@ -104,6 +105,7 @@ def blocked_in_c(marker, seconds):
     child = subprocess.Popen(
         [sys.executable, "-c", f"import time; time.sleep({seconds})"], start_new_session=True
     )
-    pathlib.Path(marker).write_text(str(child.pid))
+    pathlib.Path(f"{marker}.part").write_text(str(child.pid))
+    pathlib.Path(f"{marker}.part").replace(marker)  # whole or absent: read as soon as it exists
     time.sleep(seconds)
     return seconds
