@@ -504,6 +504,44 @@ def test_a_ctrl_c_while_a_data_set_is_published_is_held_until_it_is_whole(tmp_pa
     assert sorted(_files(data)) == ["e_a.csv", "e_b.csv", "e_provenance.json"]  # published whole
 
 
+def test_two_saves_into_one_data_directory_publish_one_after_the_other(tmp_path, monkeypatch):
+    """Two commands saving one experiment into one directory interleaved their publishing: the
+    second's first file beside the first's others, under the first's provenance."""
+    import threading
+    import time
+
+    from replication.report import store
+
+    data = tmp_path / "data"
+    first_inside, go = threading.Event(), threading.Event()
+    real_publish = store._publish
+
+    def publish(source, target):
+        real_publish(source, target)
+        if threading.current_thread().name == "first" and not first_inside.is_set():
+            first_inside.set()
+            assert go.wait(30)
+
+    monkeypatch.setattr(store, "_publish", publish)
+
+    def save(tag):
+        with store.data_set(data, "e_provenance.json") as staged:
+            for name in ("e_a.csv", "e_b.csv", "e_provenance.json"):
+                (staged / name).write_text(f"{tag}\n")
+
+    first = threading.Thread(target=save, args=("first",), name="first")
+    second = threading.Thread(target=save, args=("second",), name="second")
+    first.start()
+    assert first_inside.wait(30)
+    second.start()
+    time.sleep(0.5)  # the second save reaches its publishing step (and, now, waits)
+    go.set()
+    first.join(30)
+    second.join(30)
+    contents = {(data / name).read_text() for name in ("e_a.csv", "e_b.csv", "e_provenance.json")}
+    assert contents == {"second\n"}  # the later set, whole
+
+
 def test_a_data_set_without_its_provenance_is_refused(tmp_path):
     from replication.report.store import data_set
 

@@ -126,6 +126,32 @@ def interrupt_deferred() -> Iterator[None]:
 STAGING = ".staging-"
 
 
+@contextlib.contextmanager
+def _publishing(data: Path) -> Iterator[None]:
+    """Hold an exclusive lock on the directory ``data`` while a data set is published.
+
+    Two saves into one directory interleaved their steps: one's files under the other's
+    provenance. The lock is a ``flock`` on the directory itself (no lock file among the data),
+    released by the system however the process ends. Where ``fcntl`` or directory locks are
+    not available, publishing is unguarded, as before.
+    """
+    try:
+        import fcntl
+
+        handle = os.open(data, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    except (ImportError, OSError):  # pragma: no cover - no fcntl, or the directory cannot be opened
+        yield
+        return
+    try:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX)
+        except OSError:  # pragma: no cover - a file system without locks
+            pass
+        yield
+    finally:
+        os.close(handle)
+
+
 def _remove_abandoned_staging(data: Path) -> None:
     """Remove staging directories of :func:`data_set` whose process no longer runs (a killed save)."""
     for path in data.glob(f"{STAGING}*"):
@@ -157,8 +183,9 @@ def data_set(data: Path, provenance: str, *, stale: Iterable[str] = ()) -> Itera
     A Ctrl-C or an error while the files are written leaves ``data`` as it was. A crash in the
     short publishing step leaves the data without their provenance: ``replication report``
     then renders nothing from them and says so. A staging directory left by a killed process
-    is removed by the next save. Two commands saving into one ``data`` at once are not
-    guarded against.
+    is removed by the next save. Two commands saving into one ``data`` at once publish one
+    after the other (an exclusive ``flock`` on the directory), so each set is whole and the
+    later one replaces the earlier whole.
     """
     data.mkdir(parents=True, exist_ok=True)
     _remove_abandoned_staging(data)
@@ -168,8 +195,8 @@ def data_set(data: Path, provenance: str, *, stale: Iterable[str] = ()) -> Itera
         staged = sorted(p.relative_to(staging) for p in staging.rglob("*") if p.is_file())
         if Path(provenance) not in staged:
             raise ValueError(f"the staged data set has no provenance {provenance}")
-        old = {p.relative_to(data) for pattern in stale for p in data.glob(pattern) if p.is_file()}
-        with interrupt_deferred():
+        with _publishing(data), interrupt_deferred():
+            old = {p.relative_to(data) for pattern in stale for p in data.glob(pattern) if p.is_file()}
             (data / provenance).unlink(missing_ok=True)
             for name in sorted(old - set(staged)):
                 (data / name).unlink(missing_ok=True)
