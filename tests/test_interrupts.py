@@ -6,6 +6,7 @@ compiled jet kernel), must stop with exit status 130, keep its last complete che
 no failure recorded, and, resumed, end bit-identical to an uninterrupted run.
 """
 
+import concurrent.futures as cf
 import contextlib
 import functools
 import json
@@ -479,3 +480,52 @@ with executor("process", workers=1) as pool:
     finally:
         with contextlib.suppress(ProcessLookupError):
             os.kill(worker, signal.SIGKILL)
+
+
+def test_a_killed_command_with_many_open_files_leaves_no_worker():
+    """A forked worker inherits its parent's descriptors, so its pidfd could be numbered 1024 or
+    more, which select() refuses: the watch died with a traceback and the worker stayed."""
+    import resource
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if hard != resource.RLIM_INFINITY and hard < 1200:
+        pytest.skip(f"the open-file limit ({hard}) is too low")
+    script = """
+import os, resource, time
+soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+resource.setrlimit(resource.RLIMIT_NOFILE, (max(soft, 1200), hard))  # the test skips below 1200
+keep = [os.open(os.devnull, os.O_RDONLY) for _ in range(1100)]
+from replication.casestudy.evaluate import executor
+with executor("process", workers=1) as pool:
+    print(pool.submit(os.getpid).result(), flush=True)
+    time.sleep(120)
+"""
+    with subprocess.Popen(
+        [sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    ) as child:
+        worker = int(child.stdout.readline())
+        child.kill()
+        try:
+            assert _wait_for(lambda: _ended(worker)), "the worker outlived its parent"
+        finally:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(worker, signal.SIGKILL)
+        err = child.stderr.read()  # the end of file comes once the worker, which shares it, has ended
+    assert "Traceback" not in err, err
+
+
+def test_a_fork_server_worker_is_not_taken_for_an_orphan():
+    """A fork server's worker is not the child of the pool's process: it must not end itself."""
+    import multiprocessing
+
+    from replication.casestudy.evaluate import worker_initializer
+
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        pytest.skip("no fork server here")
+    with cf.ProcessPoolExecutor(
+        1, mp_context=multiprocessing.get_context("forkserver"), initializer=worker_initializer,
+        initargs=(os.getpid(),),
+    ) as pool:  # fmt: skip
+        assert pool.submit(abs, -3).result(timeout=60) == 3
+        time.sleep(1.0)  # a wrong watch would have ended the worker by now
+        assert pool.submit(abs, -4).result(timeout=60) == 4

@@ -187,6 +187,17 @@ def exit_on_terminate() -> None:
     signal.signal(signal.SIGTERM, _exit)
 
 
+def _exists(pid: int) -> bool:
+    """Whether a process ``pid`` exists (a zombie counts)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # pragma: no cover - someone else's process
+        return True
+    return True
+
+
 #: Seconds an orphaned worker has to unwind (kill its simulation) before it ends at once.
 ORPHAN_GRACE = 5.0
 
@@ -211,25 +222,35 @@ def end_with_parent(parent: int) -> None:
     The signal goes to the main thread itself: the kernel's parent-death signal
     (``PR_SET_PDEATHSIG``) goes to the process, whose other threads (OpenBLAS's) may take
     it, and it follows the *thread* that started the worker rather than the process.
-    A parent already gone before the call is checked for.
+    A parent already gone before the call is checked for. The worker must be the child of
+    ``parent`` (fork or spawn); otherwise (a fork server's worker) nothing is watched.
     """
     main = threading.main_thread().ident
     assert main is not None
+    if os.getppid() != parent and _exists(parent):  # not its child (a fork server's worker): no watch
+        return
 
-    def watch() -> None:
+    def wait_for_parent() -> None:
         try:
             handle = os.pidfd_open(parent)
         except (AttributeError, OSError):  # no pidfds here, or the parent has gone already
             handle = None
         try:
             if handle is not None and os.getppid() == parent:
-                select.select([handle], [], [])
-            else:
-                while os.getppid() == parent:
-                    time.sleep(0.5)
+                waiter = select.poll()  # not select(): a forked worker's fds may be >= FD_SETSIZE
+                waiter.register(handle, select.POLLIN)
+                waiter.poll()
         finally:
             if handle is not None:
                 os.close(handle)
+
+    def watch() -> None:
+        try:
+            wait_for_parent()
+        except Exception:  # noqa: BLE001 - whatever failed, polling the parent pid still works
+            pass
+        while os.getppid() == parent:
+            time.sleep(0.5)
         signal.pthread_kill(main, signal.SIGTERM)
         time.sleep(ORPHAN_GRACE)
         os._exit(128 + signal.SIGTERM)

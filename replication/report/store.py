@@ -132,14 +132,17 @@ def _publishing(data: Path) -> Iterator[None]:
 
     Two saves into one directory interleaved their steps: one's files under the other's
     provenance. The lock is a ``flock`` on the directory itself (no lock file among the data),
-    released by the system however the process ends. Where ``fcntl`` or directory locks are
-    not available, publishing is unguarded, as before.
+    released by the system however the process ends. It guards saves on one machine: on NFS
+    a directory's flock is local to each client. Where ``fcntl`` or directory locks are not
+    available, publishing is unguarded, as before.
     """
     try:
         import fcntl
 
         handle = os.open(data, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
     except (ImportError, OSError):  # pragma: no cover - no fcntl, or the directory cannot be opened
+        handle = None
+    if handle is None:  # pragma: no cover - (outside the except: no stray context on later errors)
         yield
         return
     try:
