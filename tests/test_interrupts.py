@@ -529,3 +529,40 @@ def test_a_fork_server_worker_is_not_taken_for_an_orphan():
         assert pool.submit(abs, -3).result(timeout=60) == 3
         time.sleep(1.0)  # a wrong watch would have ended the worker by now
         assert pool.submit(abs, -4).result(timeout=60) == 4
+
+
+_KILLED_WHILE_SIMULATING = """
+import os, sys, time
+sys.path.insert(0, sys.argv[2])
+import workerfaults
+from replication.casestudy.evaluate import executor
+
+run_dir = sys.argv[1]
+with executor(sys.argv[3], workers=1) as pool:
+    future = pool.submit(workerfaults.sleeping_simulation, run_dir, 600.0)
+    time.sleep(600)
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", SIMULATION_EXECUTORS)
+def test_a_killed_command_leaves_no_simulation_running(tmp_path, kind):
+    """SIGKILL of the command while a worker waited for a simulation: on a local dask cluster,
+    distributed ends the worker with os._exit, which ran no cleanup, so the engine (a session
+    of its own) ran on until its time limit."""
+    with subprocess.Popen(
+        [sys.executable, "-c", _KILLED_WHILE_SIMULATING, str(tmp_path), str(Path(__file__).parent), kind],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
+    ) as command:  # fmt: skip
+        engine = None
+        try:
+            assert _wait_for(lambda: (tmp_path / "pid").exists(), seconds=120), "no simulation started"
+            engine = int((tmp_path / "pid").read_text())
+            command.kill()  # the command alone, as the OOM killer would
+            assert _wait_for(lambda: _ended(engine)), "the simulation outlived the killed command"
+        finally:
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.killpg(command.pid, signal.SIGKILL)  # whatever is left of its group
+            if engine is not None:
+                with contextlib.suppress(ProcessLookupError, PermissionError):
+                    os.killpg(engine, signal.SIGKILL)

@@ -1,4 +1,4 @@
-"""A dask worker plugin that gives every worker of a cluster one BLAS thread.
+"""Dask worker plugins: one BLAS thread per worker, and no simulation outlives its worker.
 
 Registered by the GA's dask executor on the clusters it uses (its own local cluster or one
 at a scheduler address): the GA's parallelism is one task per worker thread, so BLAS
@@ -9,16 +9,23 @@ nanny already starts workers with ``OPENBLAS_NUM_THREADS=1`` by default
 (``distributed.nanny.pre-spawn-environ``); the plugin does not rely on that configuration,
 nor on workers having a nanny.
 
+A worker whose parent (its nanny, or the command that started a local cluster) dies ends
+at once with ``os._exit``, which runs no cleanup: an SPH simulation it was waiting for, a
+process in a session of its own, ran on until its time limit (:class:`EngineReaper`).
+
 This module imports ``distributed``: import it only where dask is used.
 """
 
 from __future__ import annotations
 
+import os
+import signal
+
 from distributed.diagnostics.plugin import WorkerPlugin
 
 from replication.threadlimits import limit_worker_blas
 
-__all__ = ["OneBlasThread", "register"]
+__all__ = ["EngineReaper", "OneBlasThread", "kill_engine_sessions", "register"]
 
 
 class OneBlasThread(WorkerPlugin):
@@ -36,6 +43,57 @@ class OneBlasThread(WorkerPlugin):
         limit_worker_blas()
 
 
+def kill_engine_sessions() -> None:
+    """Kill the process groups of this process's children that lead sessions of their own.
+
+    Those are the SPH engines (:mod:`replication.casestudy.sph.process` starts each in a
+    session of its own, so that a Ctrl-C in the terminal does not reach it); nothing else
+    that a dask worker starts leads a session.
+    """
+    import psutil  # a dependency of distributed
+
+    for child in psutil.Process().children():
+        try:
+            if os.getsid(child.pid) == child.pid:
+                os.killpg(child.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
+
+
+class EngineReaper(WorkerPlugin):
+    """Makes the worker kill its simulations' engines when it ends through ``os._exit``.
+
+    distributed ends a worker whose parent has gone with ``os._exit(-1)`` from a thread of
+    its own, which runs no ``finally`` and no ``atexit``; the engine, in a session of its
+    own, then ran on (up to its time limit, an hour by default) after the command was
+    killed. The plugin wraps ``os._exit`` in the worker process so that
+    :func:`kill_engine_sessions` runs first. Installed once per process.
+
+    Notes
+    -----
+    Paper section 6: the GA's SPH fitness evaluations on a dask cluster.
+    """
+
+    name = "replication-engine-reaper"
+    idempotent = True
+
+    def setup(self, worker) -> None:
+        real_exit = os._exit
+        if getattr(real_exit, "reaps_engines", False):
+            return
+
+        def _exit(status: int) -> None:
+            try:
+                kill_engine_sessions()
+            finally:
+                real_exit(status)
+
+        _exit.reaps_engines = True  # type: ignore[attr-defined]
+        os._exit = _exit  # type: ignore[assignment]
+
+
 def register(client) -> None:
-    """Register :class:`OneBlasThread` on the cluster of a ``distributed.Client``."""
+    """Register :class:`OneBlasThread` and :class:`EngineReaper` on the cluster of a
+    ``distributed.Client``."""
     client.register_plugin(OneBlasThread())
+    client.register_plugin(EngineReaper())
