@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from replication.casestudy import JetConfig, pelton_bucket_cloud, pelton_bucket_surface, surface_force
+from replication.casestudy.sph import engine_available
 from replication.cli.force import register
-from replication.errors import CloudFileError, InputError
+from replication.errors import CloudFileError, InputError, OutputError
 from replication.io import save_cloud, write_surface
 
 
@@ -186,3 +187,39 @@ def test_a_run_dir_in_use_by_another_force_command_is_refused(capsys, bucket_csv
     monkeypatch.setattr(sph, "sph_force", lambda *a, progress=None, **k: fake_sph(*a, **k))
     with hold(tmp_path / "r"), pytest.raises(InputError, match="--run-dir .*r is in use by another command"):
         run(capsys, "force", str(bucket_csv), "--solver", "sph", "--run-dir", str(tmp_path / "r"))
+
+
+def test_an_sph_run_directory_with_the_users_files_is_refused(capsys, bucket_csv, tmp_path):
+    """The simulation deleted and replaced steps.csv, series.csv, result.json and scene.json of a
+    directory the user named, and said "ok"."""
+    mine = tmp_path / "mydata"
+    mine.mkdir()
+    for name in ("steps.csv", "series.csv", "result.json", "scene.json"):
+        (mine / name).write_text("precious\n")
+    with pytest.raises(InputError, match=r"--run-dir .*mydata holds files that are not an earlier"):
+        run(capsys, "force", str(bucket_csv), "--solver", "sph", "--run-dir", str(mine))
+    (mine / "notes.txt").write_text("mine\n")
+    (mine / "job.json").write_text("{}\n")  # a simulation's marker does not cover a stranger
+    with pytest.raises(InputError, match=r"\(notes\.txt\)"):
+        run(capsys, "force", str(bucket_csv), "--solver", "sph", "--run-dir", str(mine))
+    assert all((mine / name).read_text() == "precious\n" for name in ("steps.csv", "result.json"))
+
+
+def test_an_sph_run_directory_that_is_a_file_is_one_line(capsys, bucket_csv, tmp_path):
+    # was: "unexpected FileExistsError" once the simulation made its directory
+    (tmp_path / "afile").write_text("hi\n")
+    with pytest.raises(OutputError, match=r"--run-dir .*afile is a file, not a directory"):
+        run(capsys, "force", str(bucket_csv), "--solver", "sph", "--run-dir", str(tmp_path / "afile"))
+    assert (tmp_path / "afile").read_text() == "hi\n"
+
+
+@pytest.mark.skipif(not engine_available(), reason='the SPH engine is not installed (pip install ".[sph]")')
+def test_an_earlier_simulations_run_directory_is_reused(capsys, bucket_csv, tmp_path):
+    """What the engine writes is what the run-directory check calls a simulation's own."""
+    from replication.cli.sph import SIMULATION_ENTRIES
+
+    run_dir = tmp_path / "rd"
+    args = ["force", str(bucket_csv), "--solver", "sph", "--run-dir", str(run_dir), "--particle-radius", "2"]
+    assert run(capsys, *args)[0] == 0
+    assert {entry.name for entry in run_dir.iterdir()} <= SIMULATION_ENTRIES
+    assert run(capsys, *args)[0] == 0  # an earlier simulation's files are replaced

@@ -77,9 +77,40 @@ def _settings(args: argparse.Namespace) -> Any:
     return SPHSettings(**changes)
 
 
+#: What a simulation writes into its run directory (:mod:`replication.casestudy.sph`); a
+#: directory holding only these, ``job.json`` among them (or the lock alone, which a command
+#: holding it made), is an earlier simulation's, whose files a new one replaces.
+SIMULATION_ENTRIES = frozenset(
+    {".lock", "column.pda", "engine", "engine.log", "job.json", "outcome.json", "progress.json",
+     "result.json", "scene.json", "series.csv", "solid.obj", "steps.csv"}
+)  # fmt: skip
+
+
+def _check_run_dir(run_dir: str) -> None:
+    """``--run-dir`` must be new, empty or an earlier simulation's: the simulation replaces
+    scene.json, steps.csv, series.csv, result.json, ... there, and deleted a user's files of
+    those names without a word. A file of that name is refused too."""
+    from replication.errors import InputError
+    from replication.io.paths import check_writable_dir
+
+    path = check_writable_dir(run_dir, "--run-dir")
+    if not path.is_dir():
+        return
+    entries = sorted(entry.name for entry in path.iterdir())
+    others = [name for name in entries if name not in SIMULATION_ENTRIES]
+    if others or (set(entries) - {".lock", "job.json"} and "job.json" not in entries):
+        shown = ", ".join((others or entries)[:3]) + (", ..." if len(others or entries) > 3 else "")
+        raise InputError(
+            f"--run-dir {run_dir} holds files that are not an earlier simulation's ({shown}): the "
+            "simulation replaces scene.json, steps.csv, series.csv, result.json and others there; "
+            "use a new or empty directory"
+        )
+
+
 def check_force_options(args: argparse.Namespace) -> None:
     """Refuse SPH options without ``--solver sph``, ``--sound-speed`` without ``--sph-method
-    wcsph``, and a ``--run-dir`` that holds INPUT."""
+    wcsph``, and a ``--run-dir`` that holds INPUT, is not a directory, or holds files that
+    are not an earlier simulation's."""
     from pathlib import Path
 
     from replication.errors import InputError
@@ -105,6 +136,8 @@ def check_force_options(args: argparse.Namespace) -> None:
                 f"--run-dir {args.run_dir} holds INPUT {source}: the simulation writes its files there "
                 "(scene, engine log, steps.csv, series.csv, result.json); use a directory of their own"
             )
+    if getattr(args, "run_dir", None):
+        _check_run_dir(args.run_dir)
 
 
 @contextlib.contextmanager
