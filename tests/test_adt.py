@@ -258,3 +258,17 @@ def test_spreads_of_a_large_cloud_are_exact_enough_and_thread_independent():
     assert finite and np.array_equal(serial, parallel)
     np.testing.assert_allclose(serial, np.std(cloud, axis=0), rtol=1e-12)
     assert not column_spreads(np.where(np.arange(300_000)[:, None] == 7, np.nan, cloud))[1]
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(-1000, 1000))
+def test_the_depth_axis_and_surface_do_not_depend_on_the_units(seed, exponent):
+    """Squared deviations underflowed (every spread 0 at 1e-170: the tie rule chose z) or
+    overflowed (a cloud at 1e160 was refused); a power-of-two scale changes nothing."""
+    from replication.surfaces import random_cloud
+
+    cloud = random_cloud(30, rng=seed) * [0.1, 1.0, 0.8]
+    reference = adt(cloud)
+    scaled = adt(np.ldexp(cloud, exponent))
+    assert scaled.depth_axis == reference.depth_axis == 0
+    np.testing.assert_array_equal(scaled.triangles, reference.triangles)
+    np.testing.assert_array_equal(scaled.points, np.ldexp(reference.points, exponent))

@@ -65,6 +65,25 @@ def column_spreads(points: np.ndarray) -> tuple[np.ndarray, bool]:
     return np.sqrt(summed(True) / n), finite
 
 
+#: Below this spread, squared deviations lose digits as subnormals (or vanish): recompute.
+_TINY = 2.0**-450
+
+
+def _rescaled_spreads(cloud: np.ndarray) -> np.ndarray:
+    """Spreads of a cloud whose squared deviations overflow or underflow float64, computed on
+    the cloud scaled by a power of two to unit magnitude and scaled back (both exact).
+
+    Without this the depth axis depended on the units: at 1e-170 every spread was 0 and the
+    tie rule chose z; from 1e155 the spreads overflowed and the cloud was refused.
+    """
+    magnitude = float(np.abs(cloud).max())
+    if magnitude == 0.0:
+        return np.zeros(3)
+    exponent = math.frexp(magnitude)[1]
+    values, _ = column_spreads(np.ldexp(cloud, -exponent))
+    return np.ldexp(values, exponent)
+
+
 def validated_cloud(points: ArrayLike) -> tuple[np.ndarray, tuple[float, float, float]]:
     """The cloud as a C-contiguous float64 (n, 3) array, and the spreads of x, y and z.
 
@@ -80,6 +99,8 @@ def validated_cloud(points: ArrayLike) -> tuple[np.ndarray, tuple[float, float, 
     values, finite = column_spreads(cloud)
     if not finite:
         cloud = as_cloud(cloud)  # names NaN or infinite rows; finite coordinates pass
+    if not (np.all(np.isfinite(values)) and values.max() >= _TINY):
+        values = _rescaled_spreads(cloud)
     spreads = (float(values[0]), float(values[1]), float(values[2]))
     if not all(math.isfinite(s) for s in spreads):
         raise InputError(
