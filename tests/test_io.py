@@ -270,6 +270,9 @@ def test_a_header_naming_the_axes_says_which_column_is_which(tmp_path, header):
         ("a.csv", "x,y,z\n1,2,3\n4,5\n", r"line 3 has 2 column\(s\), expected 3"),
         ("b.csv", "1,2,3,4\n5,6,7,8\n", r"line 1 has 4 column\(s\)"),
         ("c.txt", "1 2 3\n4 five 6\n", r"line 2, column 2: 'five' is not a number"),
+        # Python's float() takes these, numpy's reader does not: the message named no line
+        ("c2.csv", "0,0,0\n1,0,0\n0,1_0,1\n", r"line 3, column 2: '1_0' is not a number"),
+        ("c3.csv", "0,0,0\n0,\u0661,1\n", r"line 2, column 2: '\u0661' is not a number"),
         ("d.xyz", "", "empty"),
         ("e.xyz", "\n# only a comment\n\n", "empty"),
         ("f.csv", "x,y,z\n", "header but no data"),

@@ -41,6 +41,12 @@ def _is_number(token: str) -> bool:
     return True
 
 
+def _is_float64_text(token: str) -> bool:
+    """Whether numpy's text reader takes ``token`` as a number: Python's ``float`` also takes
+    digit separators (``1_0``) and non-ASCII digits, which ``np.loadtxt`` refuses."""
+    return token.isascii() and "_" not in token and _is_number(token)
+
+
 def _split(line: str, comma: bool) -> list[str]:
     return [t.strip() for t in line.split(",")] if comma else line.split()
 
@@ -54,7 +60,7 @@ def _diagnose(path: Path, lines: list[tuple[int, str]], comma: bool) -> CloudFil
                 f"{path}: line {number} has {len(tokens)} column(s), expected 3 (x, y, z): {line.strip()!r}"
             )
         for column, token in enumerate(tokens, start=1):
-            if not _is_number(token):
+            if not _is_float64_text(token):
                 return CloudFileError(f"{path}: line {number}, column {column}: {token!r} is not a number")
     return CloudFileError(f"{path}: could not parse the file as three numeric columns")
 
