@@ -223,3 +223,20 @@ def test_an_earlier_simulations_run_directory_is_reused(capsys, bucket_csv, tmp_
     assert run(capsys, *args)[0] == 0
     assert {entry.name for entry in run_dir.iterdir()} <= SIMULATION_ENTRIES
     assert run(capsys, *args)[0] == 0  # an earlier simulation's files are replaced
+
+
+@pytest.mark.parametrize(
+    ("options", "match"),
+    [
+        (
+            ["--center", "18", "nan", "--full-jet"],
+            r"--center must be 2 finite numbers of millimetres, got 18 nan",
+        ),
+        (["--diameter", "1e-300"], r"--diameter must lie in \[1e-57, 1e\+63\] mm, got 1e-300"),
+        (["--diameter", "0"], r"--diameter must be a positive number of millimetres"),
+    ],
+)
+def test_jet_options_are_quoted_as_given_in_millimetres(capsys, bucket_csv, options, match):
+    # was: "jet center (x, y) must be 2 finite numbers, got (0.018, nan)", in metres
+    with pytest.raises(InputError, match=match):
+        run(capsys, "force", str(bucket_csv), *options)
