@@ -39,7 +39,8 @@ def _format_stats(name: str, pairs: Any, st: Any) -> list[str]:
     if st.rounding_only:
         rounding = [
             f"  note               every deviation is at most {st.max_abs:.2g}, float64 rounding next to "
-            f"depths of {st.rounding_scale:.4g}: the tests compare rounding noise; the surfaces agree"
+            f"depths of {st.rounding_scale:.4g}: the surfaces agree, and both tests take rounding for no "
+            "difference (on the raw noise the paper's t-test rejects or not with the units)"
         ]
     return [
         head,
