@@ -88,7 +88,8 @@ def validated_cloud(points: ArrayLike) -> tuple[np.ndarray, tuple[float, float, 
     """The cloud as a C-contiguous float64 (n, 3) array, and the spreads of x, y and z.
 
     Raises the errors of :func:`.as_cloud` (shape, non-numeric, NaN or infinite rows), and
-    an :class:`~replication.errors.InputError` when the spreads overflow float64.
+    an :class:`~replication.errors.InputError` when a spread exceeds float64 even when computed
+    at unit scale (:func:`_rescaled_spreads`).
     """
     cloud = None
     if type(points) is np.ndarray and points.dtype.kind in "fiub":  # subclasses (masked) take as_cloud
