@@ -368,6 +368,15 @@ def _ended(pid):
         return False
 
 
+def _assert_ends(pid, message):
+    """Assert that process ``pid`` ends soon; kill it either way, so no test leaves it behind."""
+    try:
+        assert _wait_for(lambda: _ended(pid)), message
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
+
+
 def test_a_killed_command_leaves_no_pool_worker_and_no_lock(tmp_path):
     """SIGKILL of the command: its forked workers waited forever, holding the run directory's
     lock, so --resume was refused until they were found and killed by hand."""
@@ -475,11 +484,7 @@ with executor("process", workers=1) as pool:
     with subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True) as child:
         worker = int(child.stdout.readline())
         child.kill()
-    try:
-        assert _wait_for(lambda: _ended(worker)), "an orphaned worker outlived its grace"
-    finally:
-        with contextlib.suppress(ProcessLookupError):
-            os.kill(worker, signal.SIGKILL)
+    _assert_ends(worker, "an orphaned worker outlived its grace")
 
 
 def test_a_killed_command_with_many_open_files_leaves_no_worker():
@@ -505,11 +510,7 @@ with executor("process", workers=1) as pool:
     ) as child:
         worker = int(child.stdout.readline())
         child.kill()
-        try:
-            assert _wait_for(lambda: _ended(worker)), "the worker outlived its parent"
-        finally:
-            with contextlib.suppress(ProcessLookupError):
-                os.kill(worker, signal.SIGKILL)
+        _assert_ends(worker, "the worker outlived its parent")
         err = child.stderr.read()  # the end of file comes once the worker, which shares it, has ended
     assert "Traceback" not in err, err
 
