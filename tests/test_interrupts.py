@@ -567,3 +567,14 @@ def test_a_killed_command_leaves_no_simulation_running(tmp_path, kind):
             if engine is not None:
                 with contextlib.suppress(ProcessLookupError, PermissionError):
                     os.killpg(engine, signal.SIGKILL)
+
+
+def test_the_engine_reaper_leaves_a_program_that_is_not_a_worker_process_alone():
+    """A worker in threads of another program (LocalCluster(processes=False) behind --scheduler)
+    must not change that program's os._exit."""
+    pytest.importorskip("distributed")
+    from replication.casestudy.daskplugin import EngineReaper
+
+    real = os._exit
+    EngineReaper().setup(None)
+    assert os._exit is real

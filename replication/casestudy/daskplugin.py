@@ -52,7 +52,11 @@ def kill_engine_sessions() -> None:
     """
     import psutil  # a dependency of distributed
 
-    for child in psutil.Process().children():
+    try:
+        children = psutil.Process().children()
+    except psutil.Error:
+        return
+    for child in children:
         try:
             if os.getsid(child.pid) == child.pid:
                 os.killpg(child.pid, signal.SIGKILL)
@@ -67,7 +71,9 @@ class EngineReaper(WorkerPlugin):
     its own, which runs no ``finally`` and no ``atexit``; the engine, in a session of its
     own, then ran on (up to its time limit, an hour by default) after the command was
     killed. The plugin wraps ``os._exit`` in the worker process so that
-    :func:`kill_engine_sessions` runs first. Installed once per process.
+    :func:`kill_engine_sessions` runs first. Installed once per process, and only in a
+    worker process of its own (a nanny's): a worker running in threads of another program
+    (``LocalCluster(processes=False)`` behind ``--scheduler``) leaves that program alone.
 
     Notes
     -----
@@ -78,8 +84,10 @@ class EngineReaper(WorkerPlugin):
     idempotent = True
 
     def setup(self, worker) -> None:
+        import multiprocessing
+
         real_exit = os._exit
-        if getattr(real_exit, "reaps_engines", False):
+        if getattr(real_exit, "reaps_engines", False) or multiprocessing.parent_process() is None:
             return
 
         def _exit(status: int) -> None:

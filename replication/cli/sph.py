@@ -89,7 +89,7 @@ SIMULATION_ENTRIES = frozenset(
 def _check_run_dir(run_dir: str) -> None:
     """``--run-dir`` must be new, empty or an earlier simulation's: the simulation replaces
     scene.json, steps.csv, series.csv, result.json, ... there, and deleted a user's files of
-    those names without a word. A file of that name is refused too."""
+    those names without a word. A ``--run-dir`` naming a file is refused too."""
     from replication.errors import InputError
     from replication.io.paths import check_writable_dir
 
