@@ -57,7 +57,10 @@ def add_force_options(p: argparse.ArgumentParser) -> None:
         "--timeout", type=positive_float, metavar="S", help="wall-clock limit in seconds (default 1800)"
     )
     g.add_argument(
-        "--run-dir", metavar="DIR", help="keep the simulation's files (scene, log, series CSV) in DIR"
+        "--run-dir",
+        metavar="DIR",
+        help="keep the simulation's files (scene, log, series CSV) in DIR: a new or empty directory, "
+        "or an earlier simulation's, whose files are replaced",
     )
 
 
