@@ -71,7 +71,9 @@ _TINY = 2.0**-450
 
 def _rescaled_spreads(cloud: np.ndarray) -> np.ndarray:
     """Spreads of a cloud whose squared deviations overflow or underflow float64, computed on
-    the cloud scaled by a power of two to unit magnitude and scaled back (both exact).
+    the cloud scaled by a power of two to unit magnitude and scaled back (exact, except for
+    coordinates more than 2**1022 times smaller than the largest, which scaling down rounds
+    and which do not move a spread).
 
     Without this the depth axis depended on the units: at 1e-170 every spread was 0 and the
     tie rule chose z; from 1e155 the spreads overflowed and the cloud was refused.
