@@ -33,7 +33,14 @@ from numpy.typing import ArrayLike
 from replication.errors import InputError
 from replication.params import real
 
-__all__ = ["ROUNDING_FRACTION", "TestResult", "PairedStatistics", "paired_statistics"]
+__all__ = [
+    "MAGNITUDE_ROUNDING",
+    "ROUNDING_FRACTION",
+    "PairedStatistics",
+    "TestResult",
+    "paired_statistics",
+    "rounding_tolerance",
+]
 
 
 @dataclass(frozen=True)
@@ -52,6 +59,23 @@ class TestResult:
 #: Deviations of at most this fraction of the depth range are float64 rounding (depths carry
 #: about 16 significant digits; evaluation and interpolation lose a few).
 ROUNDING_FRACTION = 1e-12
+#: ... plus this fraction of the depths' own size (64 machine epsilons): depths offset far from
+#: zero round on their own scale. Shifting Table 1's random clouds by 1e3 to 3e12 moved their
+#: ADT - NURBS deviations by at most 3.2 epsilons of the offset (both pairings, 9-200 points),
+#: so 64 leaves a margin of 20 while real deviations keep their ranks: a tolerance of
+#: ROUNDING_FRACTION of the depths' size (4500 epsilons) made ties of deviations 1e-3 apart at
+#: an offset of 1e9 and changed the Wilcoxon p-value.
+MAGNITUDE_ROUNDING = 64 * float(np.finfo(np.float64).eps)
+
+
+def rounding_tolerance(depth_range: float, magnitude: float) -> float:
+    """The largest deviation that is float64 rounding between depths of this range and size.
+
+    ``ROUNDING_FRACTION * depth_range + MAGNITUDE_ROUNDING * magnitude``: proportional to the
+    units (a power-of-two change of units scales it exactly), and growing with an offset only
+    as fast as the rounding of the depths themselves.
+    """
+    return ROUNDING_FRACTION * depth_range + MAGNITUDE_ROUNDING * magnitude
 
 
 @dataclass(frozen=True)
@@ -82,18 +106,18 @@ class PairedStatistics:
     magnitude: float = 0.0  # the largest |depth| of either sample
 
     @property
-    def rounding_scale(self) -> float:
-        """What rounding is measured against: the larger of the depth range and the depths."""
-        return max(self.depth_range, self.magnitude)
+    def rounding_tolerance(self) -> float:
+        """The largest deviation that is float64 rounding here (:func:`rounding_tolerance`)."""
+        return rounding_tolerance(self.depth_range, self.magnitude)
 
     @property
     def rounding_only(self) -> bool:
-        """True when every deviation is at most :data:`ROUNDING_FRACTION` of the depth range
-        or of the depths themselves, whichever is larger: float64 rounding. Both tests then
-        report no evidence of a difference (p = 1): on the raw noise the paper's t-test
-        rejected or not with the units and offset (a plane on a lattice: ADT and NURBS agree
-        to 7e-16, yet the t-test rejected at p = 0.00025; p = 0.54 in mm, 0.012 in m)."""
-        return self.max_abs <= ROUNDING_FRACTION * self.rounding_scale
+        """True when every deviation is at most :attr:`rounding_tolerance`: float64 rounding
+        of depths of this range and size. Both tests then report no evidence of a difference
+        (p = 1): on the raw noise the paper's t-test rejected or not with the units and offset
+        (a plane on a lattice: ADT and NURBS agree to 7e-16, yet the t-test rejected at
+        p = 0.00025; p = 0.54 in mm, 0.012 in m)."""
+        return self.max_abs <= self.rounding_tolerance
 
     @property
     def paper_verdict(self) -> str:
@@ -307,16 +331,15 @@ def _paired(
         tost_p = 0.0 if abs(mean) < margin else 1.0
         dz = float("inf") * np.sign(mean) if mean else 0.0
     else:
-        if max_abs <= ROUNDING_FRACTION * max(depth_range, magnitude):  # PairedStatistics.rounding_only
+        rounding = rounding_tolerance(depth_range, magnitude)  # as PairedStatistics.rounding_tolerance
+        if max_abs <= rounding:  # PairedStatistics.rounding_only
             # nothing but rounding noise, whose mean over its spread is set by the units and the
             # offset (a plane: p = 0.54 in mm, 0.012 in m): no evidence, as in the Wilcoxon test
             t_res = TestResult(0.0, 1.0, True)
         else:
             t = stats.ttest_rel(a, b)
             t_res = TestResult(float(t.statistic), float(t.pvalue), bool(t.pvalue >= alpha))
-        # ties and zeros up to rounding of the depths (:data:`ROUNDING_FRACTION` of the larger of
-        # the depth range and the depths' size), so that units and offsets decide nothing
-        rounding = ROUNDING_FRACTION * max(depth_range, magnitude)  # as PairedStatistics.rounding_scale
+        # ties and zeros up to rounding of the depths, so that units and offsets decide nothing
         w_statistic, w_p = _wilcoxon(a, b, rounding)
         w_res = TestResult(w_statistic, w_p, bool(w_p >= alpha))
         if n > 5000:

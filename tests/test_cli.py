@@ -250,7 +250,7 @@ def test_compare_says_when_the_tests_compare_rounding_noise(capsys, tmp_path):
     save_cloud(np.column_stack([g, 0.1 * (g[:, 0] + g[:, 1])]), tmp_path / "plane.csv")
     code, out, _ = run(capsys, "compare", str(tmp_path / "plane.csv"))
     assert code == 0 and "paper's verdict: different" not in out
-    assert "float64 rounding next to depths of 1.8: the surfaces agree" in out
+    assert "float64 rounding of depths of range 1.8 and size 1.8 (up to 1.8e-12): the surfaces agree" in out
     code, out, _ = run(capsys, "compare", str(tmp_path / "plane.csv"), "--json")
     r = json.loads(out)
     assert all(

@@ -172,6 +172,18 @@ def test_a_shifted_cloud_gives_the_same_wilcoxon_test():
     assert shifted.statistics["cloud-points"].wilcoxon == base.statistics["cloud-points"].wilcoxon
 
 
+@pytest.mark.parametrize("offset", [1e6, 1e9])
+def test_a_cloud_far_from_zero_gives_the_same_wilcoxon_test(offset):
+    # the rounding tolerance was 1e-12 of the depths' size, 1e-3 at an offset of 1e9: deviations
+    # that close became ties and the p-value moved 0.985 -> 0.996; the offset itself moves the
+    # deviations by about 3 epsilons of it (7e-7 here), far below the 64 of the tolerance
+    cloud = random_cloud(50, rng=0)
+    base, far = compare(cloud, depth="z"), compare(cloud + [0.0, 0.0, offset], depth="z")
+    for name in ("nurbs-samples", "cloud-points"):
+        assert far.statistics[name].wilcoxon == base.statistics[name].wilcoxon, name
+        assert far.statistics[name].paper_verdict == base.statistics[name].paper_verdict, name
+
+
 @pytest.mark.parametrize(("n", "seed"), [(12, 61), (20, 0), (20, 2), (200, 3)])
 def test_nurbs_samples_on_a_lattice_hull_edge_do_not_depend_on_offset_or_units(n, seed):
     # samples on the hull edge at v = ymin were kept or dropped by the rounding of their

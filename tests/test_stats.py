@@ -8,7 +8,7 @@ from hypothesis.extra import numpy as st_np
 from scipy import stats
 
 from replication.errors import InputError
-from replication.stats import paired_statistics
+from replication.stats import paired_statistics, rounding_tolerance
 
 
 @pytest.fixture
@@ -192,7 +192,21 @@ def test_rounding_only_marks_deviations_at_float64_rounding():
     assert not real.rounding_only and real.as_dict()["rounding_only"] is False
     # depths far from zero round on their own scale: 2 ulp of 2e5 is 5.8e-11, a range of 1 notwithstanding
     far = paired_statistics(a + 2e5, a + 2e5 + rng.choice([-1, 0, 1], 50) * 2.0**-35, depth_range=1.0)
-    assert far.rounding_only and far.rounding_scale == pytest.approx(2e5, rel=1e-5)
+    assert far.rounding_only and far.rounding_tolerance == pytest.approx(
+        1e-12 + 64 * 2.0**-52 * 2e5, rel=1e-5
+    )
+
+
+def test_the_rounding_tolerance_follows_the_depths_rounding_not_a_fraction_of_their_size():
+    # 64 epsilons of the depths' size, not 1e-12 of it: at an offset of 3e12 a deviation of 0.01
+    # (20 units in the last place of 3e12) is rounding, one of 0.1 is not (it was 3 units before)
+    a = np.linspace(0.0, 12.7, 30) + 3e12
+    noise = paired_statistics(a, a + np.resize([0.01, -0.01, 0.0], 30), depth_range=12.7)
+    real = paired_statistics(a, a + np.resize([0.1, -0.1, 0.0], 30), depth_range=12.7)
+    assert noise.rounding_only and not real.rounding_only
+    assert rounding_tolerance(4.0, 8.0) == 4e-12 + 64 * 2.0**-52 * 8.0
+    # exact under power-of-two changes of units
+    assert rounding_tolerance(4.0 * 2.0**-30, 8.0 * 2.0**-30) == rounding_tolerance(4.0, 8.0) * 2.0**-30
 
 
 @pytest.mark.parametrize("n", [3, 4, 5, 6, 12])

@@ -38,9 +38,10 @@ def _format_stats(name: str, pairs: Any, st: Any) -> list[str]:
     rounding = []
     if st.rounding_only:
         rounding = [
-            f"  note               every deviation is at most {st.max_abs:.2g}, float64 rounding next to "
-            f"depths of {st.rounding_scale:.4g}: the surfaces agree, and both tests take rounding for no "
-            "difference (on the raw noise the paper's t-test rejects or not with the units)"
+            f"  note               every deviation is at most {st.max_abs:.2g}, float64 rounding of depths "
+            f"of range {st.depth_range:.4g} and size {st.magnitude:.4g} (up to {st.rounding_tolerance:.2g}): "
+            "the surfaces agree, and both tests take rounding for no difference (on the raw noise the "
+            "paper's t-test rejects or not with the units)"
         ]
     return [
         head,

@@ -402,9 +402,9 @@ The details, the paper's numbers side by side and the reasons follow.
   at the cloud's distinct positions; the paper's t-test and Wilcoxon test at the {config["alpha"]:g}
   level, and a TOST equivalence test with a margin of {100 * config["margin_fraction"]:g} % of
   the depth range. The Wilcoxon test takes deviations that differ by no more than float64
-  rounding (1e-12 of the larger of the depth range and the depths) as tied, and such deviations
-  from zero as zero, so that its ranks do not depend on the cloud's units or offset; on these
-  lattice clouds that restores ties that rounding had split.
+  rounding (1e-12 of the depth range plus 64 machine epsilons of the depths' size) as tied,
+  and such deviations from zero as zero, so that its ranks do not depend on the cloud's units
+  or offset; on these lattice clouds that restores ties that rounding had split.
 
 ## Table 1: one cloud per n, as in the paper
 
