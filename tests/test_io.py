@@ -546,6 +546,45 @@ def test_two_saves_into_one_data_directory_publish_one_after_the_other(tmp_path,
     assert contents == {"second\n"}  # the later set, whole
 
 
+def test_a_save_that_waits_for_another_says_so_and_then_publishes(tmp_path, capsys):
+    """The wait for another save's publishing lock was silent and unbounded (a save stopped with
+    Ctrl-Z holds it): the command line now says that it waits, once, and for which directory."""
+    import fcntl
+    import threading
+    import time
+
+    from replication.cli.common import say_when_publishing_waits
+    from replication.report import store
+
+    data = tmp_path / "data"
+    data.mkdir()
+    holder = os.open(data, os.O_RDONLY | os.O_DIRECTORY)  # another command, publishing
+    fcntl.flock(holder, fcntl.LOCK_EX)
+
+    def save():
+        with say_when_publishing_waits(), store.data_set(data, "e_provenance.json") as staged:
+            (staged / "e_provenance.json").write_text("mine\n")
+
+    thread = threading.Thread(target=save)
+    err = ""
+    try:
+        thread.start()
+        for _ in range(300):  # up to 30 s for the save to reach its publishing step
+            err += capsys.readouterr().err
+            if err or not thread.is_alive():
+                break
+            time.sleep(0.1)
+        published_meanwhile = (data / "e_provenance.json").exists()
+    finally:
+        fcntl.flock(holder, fcntl.LOCK_UN)
+        os.close(holder)
+        thread.join(30)
+    assert not published_meanwhile  # it waited
+    assert err == f"waiting for another command to finish saving its data into {data} ...\n"
+    assert (data / "e_provenance.json").read_text() == "mine\n"
+    assert store.PUBLISH_WAIT.get() is None  # the notice is the command's, only while it saves
+
+
 def test_a_data_set_without_its_provenance_is_refused(tmp_path):
     from replication.report.store import data_set
 

@@ -33,7 +33,13 @@ from replication.cli.casestudy_sph import (
     sph_fitness,
     write_fitness_record,
 )
-from replication.cli.common import emit_json, positive_int, say_simulations_finish, seed
+from replication.cli.common import (
+    emit_json,
+    positive_int,
+    say_simulations_finish,
+    say_when_publishing_waits,
+    seed,
+)
 from replication.cli.outputs import (
     DEFAULT_DIR,
     QUICK_DIR,
@@ -259,7 +265,8 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
             remove_unused_run_dir(plan.run_dir, plan.created)
             raise
     try:
-        save_casestudy_data(results, plan.out)
+        with say_when_publishing_waits():
+            save_casestudy_data(results, plan.out)
     except KeyboardInterrupt:
         print(
             f"interrupted while saving the data: every run is complete in {plan.run_dir} and the "

@@ -207,6 +207,22 @@ def relay_warnings() -> Iterator[list[warnings.WarningMessage]]:
                     print(f"warning: {w.message}", file=sys.stderr)
 
 
+@contextlib.contextmanager
+def say_when_publishing_waits() -> Iterator[None]:
+    """Print a line when saving report data waits for another command's save into the same
+    directory (it was silent: a save stopped with Ctrl-Z held the other without a word)."""
+    from replication.report.store import PUBLISH_WAIT
+
+    def notice(data: Any) -> None:
+        print(f"waiting for another command to finish saving its data into {data} ...", file=sys.stderr)
+
+    token = PUBLISH_WAIT.set(notice)
+    try:
+        yield
+    finally:
+        PUBLISH_WAIT.reset(token)
+
+
 def _jsonable(value: Any) -> Any:
     if isinstance(value, dict):
         return {str(k): _jsonable(v) for k, v in value.items()}

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from replication.cli.casestudy import plan_casestudy, run_and_report
-from replication.cli.common import positive_int
+from replication.cli.common import positive_int, say_when_publishing_waits
 from replication.cli.outputs import DEFAULT_DIR, QUICK_DIR, finish_reports, planned_output_dir
 from replication.cli.progress import progress_bar
 from replication.kernels import release_threads, warm_up
@@ -27,7 +27,8 @@ def _run_table1(out: Path, quick: bool, command: str, workers: int | None = None
     config = Table1Config.quick_config() if quick else Table1Config()
     workers = workers or os.cpu_count() or 1
     results = run_table1(config, progress=progress_bar, command=command, workers=workers)
-    save_table1_data(results, out)
+    with say_when_publishing_waits():
+        save_table1_data(results, out)
     return render_table1(out)
 
 

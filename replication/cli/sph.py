@@ -10,7 +10,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from replication.cli.common import emit_json
+from replication.cli.common import emit_json, say_when_publishing_waits
 
 SOLVERS = ("sheet", "sph")
 #: The SPH options of ``replication force`` (dest names); they need --solver sph.
@@ -281,7 +281,8 @@ def run_sph_report(out: Path, quick: bool, command: str) -> Path:
             bar.update(1, last=label)
 
         results = run_sph_study(config, command=command, quick=quick, on_run=tick)
-    save_sph_data(results, out)
+    with say_when_publishing_waits():
+        save_sph_data(results, out)
     return render_sph(out)
 
 

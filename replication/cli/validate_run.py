@@ -32,7 +32,7 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
     from replication.casestudy.evaluate import executor
     from replication.casestudy.sph import require_engine
     from replication.casestudy.sph_batch import default_cache_dir
-    from replication.cli.common import say_simulations_finish
+    from replication.cli.common import say_simulations_finish, say_when_publishing_waits
     from replication.cli.progress import Progress
     from replication.errors import SimulationError
     from replication.experiments.jet_validation import run_validation
@@ -95,7 +95,8 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
             f"no simulation succeeded ({counts}); nothing was written (see the reasons above; "
             "--retry-failed simulates the failed ones again)"
         )
-    save_jet_validation_data(results, out)
+    with say_when_publishing_waits():
+        save_jet_validation_data(results, out)
     return results, render_jet_validation(out)
 
 

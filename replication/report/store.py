@@ -8,6 +8,7 @@ files of two runs side by side under one provenance.
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import csv
 import io
 import json
@@ -16,7 +17,7 @@ import shutil
 import signal
 import tempfile
 import threading
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +26,21 @@ import pandas as pd
 from replication.errors import ReportDataError
 from replication.io.atomic import atomic_write_text, writer_gone, writer_tag
 
-__all__ = ["data_set", "interrupt_deferred", "read_csv", "read_json", "write_csv", "write_json"]
+__all__ = [
+    "PUBLISH_WAIT",
+    "data_set",
+    "interrupt_deferred",
+    "read_csv",
+    "read_json",
+    "write_csv",
+    "write_json",
+]
+
+#: Called with the data directory when :func:`data_set` must wait for another save to finish
+#: publishing into it (the library does not print; the command line says that it waits).
+PUBLISH_WAIT: contextvars.ContextVar[Callable[[Path], None] | None] = contextvars.ContextVar(
+    "PUBLISH_WAIT", default=None
+)
 
 
 def write_csv(frame: pd.DataFrame, path: str | os.PathLike[str]) -> int:
@@ -134,7 +149,8 @@ def _publishing(data: Path) -> Iterator[None]:
     provenance. The lock is a ``flock`` on the directory itself (no lock file among the data),
     released by the system however the process ends. It guards saves on one machine: on NFS
     a directory's flock is local to each client. Where ``fcntl`` or directory locks are not
-    available, publishing is unguarded, as before.
+    available, publishing is unguarded, as before. When the lock is held by another save,
+    :data:`PUBLISH_WAIT`'s callback (if set) hears of it before the wait.
     """
     try:
         import fcntl
@@ -147,6 +163,11 @@ def _publishing(data: Path) -> Iterator[None]:
         return
     try:
         try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:  # another save is publishing: say so, then wait for it
+            notice = PUBLISH_WAIT.get()
+            if notice is not None:
+                notice(data)
             fcntl.flock(handle, fcntl.LOCK_EX)
         except OSError:  # pragma: no cover - a file system without locks
             pass
