@@ -1,5 +1,6 @@
 """The NURBS baseline (section 3.1) and the fast evaluator."""
 
+import re
 import warnings
 
 import numpy as np
@@ -353,6 +354,27 @@ def test_a_cloud_too_small_for_the_gridding_is_an_input_error():
     for k in (-540, -1000):
         with pytest.raises(InputError, match=f"is below {MIN_EXTENT:.3g}"):
             fit_nurbs(np.ldexp(cloud, k))
+
+
+def test_a_cloud_too_large_for_the_gridding_is_an_input_error():
+    # was: "unexpected ValueError: fill_nearest: a query lies inside the triangulation" from 2**510
+    # (extent about 2**517), in nurbs and compare alike
+    from replication.compare import compare
+    from replication.surfaces import random_cloud
+    from replication.surfaces.nurbs import MAX_EXTENT
+
+    cloud = random_cloud(30, rng=4)
+    assert np.max(np.abs(cloud)) < 2.0**7
+    scaled = np.ldexp(cloud, 493)  # every extent below 2**500
+    assert (
+        fit_nurbs(scaled, evaluator="fast").patch.net_shape
+        == fit_nurbs(cloud, evaluator="fast").patch.net_shape
+    )
+    for k in (510, 1000):
+        with pytest.raises(InputError, match=re.escape(f"is above {MAX_EXTENT:.3g}")):
+            fit_nurbs(np.ldexp(cloud, k))
+        with pytest.raises(InputError, match=re.escape(f"is above {MAX_EXTENT:.3g}")):
+            compare(np.ldexp(cloud, k))
 
 
 @pytest.mark.parametrize(

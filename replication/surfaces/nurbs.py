@@ -292,6 +292,9 @@ def _check_triangulation(surface: Surface) -> None:
 #: interpolation multiplies two lengths, and below 2**-511 their product underflows (a cloud
 #: scaled by 2**-540 divided by zero in the raster).
 MIN_EXTENT = 2.0**-500
+#: The largest extent it takes, for the same reason: from 2**511 the product overflows (a cloud
+#: of extent 2**517 found grid nodes "inside the triangulation" that the raster had not filled).
+MAX_EXTENT = 2.0**500
 
 
 def fit_nurbs(
@@ -336,7 +339,7 @@ def fit_nurbs(
     ------
     InputError
         Too few points for the degree, a bad net, non-finite coordinates, bad options, a
-        projected extent below :data:`MIN_EXTENT`.
+        projected extent below :data:`MIN_EXTENT` or above :data:`MAX_EXTENT`.
     DegenerateInputError
         A cloud with zero extent along a projection axis (no rectangular grid exists).
 
@@ -365,6 +368,12 @@ def fit_nurbs(
         raise InputError(
             f"the projected cloud's extent ({extent[0]:.3g} by {extent[1]:.3g}) is below {MIN_EXTENT:.3g} "
             "(2**-500): the gridding's interpolation multiplies two such lengths, which underflows "
+            "float64; rescale the cloud (ADT itself triangulates it)"
+        )
+    if np.any(extent > MAX_EXTENT):
+        raise InputError(
+            f"the projected cloud's extent ({extent[0]:.3g} by {extent[1]:.3g}) is above {MAX_EXTENT:.3g} "
+            "(2**500): the gridding's interpolation multiplies two such lengths, which overflows "
             "float64; rescale the cloud (ADT itself triangulates it)"
         )
     if net is None:
