@@ -109,6 +109,13 @@ def test_format_under_another_suffix_warns(capsys, tmp_path, name, fmt, warned):
     assert ("programs that go by the suffix will misread it" in err) == warned
 
 
+def test_a_format_given_for_a_name_without_a_suffix_says_so_in_words(capsys, tmp_path):
+    code, _, err = run(
+        capsys, "adt", "--random", "20", "--seed", "1", "-o", tmp_path / "surface", "--format", "vtk"
+    )
+    assert code == 0 and "under a name without a suffix;" in err and ".(no suffix)" not in err
+
+
 def test_same_file_and_check_distinct(tmp_path):
     from replication.io.paths import check_distinct, same_file
 

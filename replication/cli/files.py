@@ -50,8 +50,9 @@ def suffix_warning(path: str | None, fmt: str | None, names: dict[str, str]) -> 
         return
     suffix = Path(path).suffix.lower().lstrip(".")
     if suffix != fmt:
+        where = f"under a .{suffix} name" if suffix else "under a name without a suffix"
         print(
-            f"warning: {path} gets --format {fmt} ({names[fmt]}) under a .{suffix or '(no suffix)'} name; "
+            f"warning: {path} gets --format {fmt} ({names[fmt]}) {where}; "
             "programs that go by the suffix will misread it",
             file=sys.stderr,
         )
