@@ -60,6 +60,42 @@ def test_output_or_run_dir_that_is_a_file(capsys, tmp_path, monkeypatch, no_expe
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
 
 
+COMMANDS_WRITING_REPORTS = [
+    ["table1", "--quick"],
+    ["reproduce", "--quick"],
+    ["casestudy", *TINY, "--run-dir", "{tmp}/run"],
+    ["validate-jet", "--quick", "--cache-dir", "{tmp}/cache"],
+    ["sph", "--quick"],
+    ["report"],
+]
+
+
+@pytest.mark.parametrize(
+    ("argv", "name"),
+    [(argv, name) for argv in COMMANDS_WRITING_REPORTS for name in ("data", "figures")]
+    + [(["table1", "--quick"], "data/table1_meshes"), (["reproduce", "--quick"], "data/table1_meshes")],
+)
+def test_a_file_where_the_reports_subdirectory_goes(capsys, tmp_path, monkeypatch, no_experiment, argv, name):
+    """A file named data or figures in the output directory: refused before the work, which
+    otherwise ended in "unexpected FileExistsError" when the results were saved."""
+
+    def started(*args, **kwargs):
+        raise AssertionError("the experiment started before the output checks")
+
+    monkeypatch.setattr("replication.experiments.jet_validation.run_validation", started)
+    monkeypatch.setattr("replication.experiments.sph.run_sph_study", started)
+    monkeypatch.setattr("replication.casestudy.sph.require_engine", lambda: None)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "out" / name).parent.mkdir(parents=True, exist_ok=True)
+    (tmp_path / "out" / name).write_text("x")
+    before = sorted(tmp_path.rglob("*"))
+    argv = [a.format(tmp=tmp_path) for a in argv]
+    code, _, err = run(capsys, *argv, "--output-dir", "out")
+    assert code == 1 and one_line(err, argv[0]), err
+    assert f"--output-dir out: out/{name} is a file, not a directory" in err
+    assert sorted(tmp_path.rglob("*")) == before
+
+
 @pytest.mark.skipif(not __import__("os").path.isdir("/sys/kernel"), reason="needs sysfs (refuses new files)")
 @pytest.mark.parametrize("command", ["table1", "reproduce", "casestudy"])
 def test_unwritable_output_dir_refused_before_the_experiment(

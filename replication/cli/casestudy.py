@@ -162,7 +162,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     from replication.casestudy.evaluate import check_executor_options
     from replication.casestudy.rundir import checkpoints, read_config
     from replication.errors import InputError
-    from replication.io.paths import check_writable_dir
+    from replication.io.paths import check_report_dir, check_writable_dir
 
     check_executor_options(args.executor, args.workers, args.scheduler)
     rescore = rescore_config(args, _requested_config(args))
@@ -205,7 +205,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
             "--output-dir)"
         )
     out = Path(args.output_dir) if args.output_dir else default_out
-    check_writable_dir(out, "--output-dir" if args.output_dir else "the reports directory")
+    check_report_dir(out, "--output-dir" if args.output_dir else "the reports directory")
     from replication.experiments.casestudy import quick_ga_config
 
     hint = ["replication", "casestudy", "--run-dir", str(run_dir), "--resume"]

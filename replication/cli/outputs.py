@@ -19,11 +19,12 @@ import contextlib
 import re
 from pathlib import Path
 
-from replication.io.paths import check_writable_dir
+from replication.io.paths import REPORT_SUBDIRS, check_report_dir
 
 __all__ = [
     "DEFAULT_DIR",
     "QUICK_DIR",
+    "TABLE1_SUBDIRS",
     "checkout_readme",
     "finish_reports",
     "missing_dirs",
@@ -33,13 +34,16 @@ __all__ = [
 
 DEFAULT_DIR = "reports"
 QUICK_DIR = "reports-quick"
+#: The subdirectories Table 1 writes besides data/ and figures/ (its meshes).
+TABLE1_SUBDIRS = (*REPORT_SUBDIRS, "data/table1_meshes")
 
 
-def planned_output_dir(args: argparse.Namespace) -> Path:
-    """The reports directory of ``table1``/``reproduce``, checked (not created)."""
+def planned_output_dir(args: argparse.Namespace, subdirs: tuple[str, ...] = REPORT_SUBDIRS) -> Path:
+    """The reports directory of ``table1``/``reproduce``/``sph``/``validate-jet``, checked (not
+    created), with the ``subdirs`` the command writes into it."""
     explicit = getattr(args, "output_dir", None)
     out = Path(explicit or (QUICK_DIR if getattr(args, "quick", False) else DEFAULT_DIR))
-    check_writable_dir(out, "--output-dir" if explicit else "the reports directory")
+    check_report_dir(out, "--output-dir" if explicit else "the reports directory", subdirs)
     return out
 
 

@@ -12,7 +12,7 @@ from typing import Any
 
 from replication.cli.casestudy import plan_casestudy, run_and_report
 from replication.cli.common import positive_int, say_when_publishing_waits
-from replication.cli.outputs import DEFAULT_DIR, QUICK_DIR, finish_reports, planned_output_dir
+from replication.cli.outputs import DEFAULT_DIR, QUICK_DIR, TABLE1_SUBDIRS, finish_reports, planned_output_dir
 from replication.cli.progress import progress_bar
 from replication.kernels import release_threads, warm_up
 
@@ -39,7 +39,7 @@ def _said(written: list[Path], out: Path) -> None:
 
 
 def _cmd_table1(args: argparse.Namespace) -> int:
-    out = planned_output_dir(args)
+    out = planned_output_dir(args, TABLE1_SUBDIRS)
     start = time.perf_counter()
     path = _run_table1(out, args.quick, args.invocation, args.workers)
     written = finish_reports(out)
@@ -111,7 +111,7 @@ def _check_readme(readme: str, out: Path) -> Path:
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from replication.errors import ReportDataError
-    from replication.io.paths import check_writable_dir, same_file
+    from replication.io.paths import check_report_dir, same_file
     from replication.report.casestudy import render_casestudy
     from replication.report.index import update_readme
     from replication.report.table1 import render_table1
@@ -120,7 +120,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     if not out.is_dir():
         what = "is a file" if out.exists() else "does not exist"
         raise ReportDataError(f"reports directory {out} {what}: run `replication reproduce` first")
-    check_writable_dir(out, "--output-dir" if args.output_dir else "the reports directory")
+    check_report_dir(out, "--output-dir" if args.output_dir else "the reports directory")
     readme = _check_readme(args.readme, out) if args.readme else None
     written = []
     if args.performance:
@@ -168,7 +168,7 @@ STAGES = (
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    out = planned_output_dir(args)
+    out = planned_output_dir(args, TABLE1_SUBDIRS)
     ga_args = argparse.Namespace(
         quick=args.quick, runs=None, generations=None, population=None, seed=None, run_dir=None,
         resume=False, executor="auto", workers=args.workers, scheduler=None, invocation=args.invocation,

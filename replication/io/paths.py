@@ -17,7 +17,10 @@ from pathlib import Path
 
 from replication.errors import OutputError
 
-__all__ = ["check_distinct", "check_writable_dir", "same_file"]
+__all__ = ["REPORT_SUBDIRS", "check_distinct", "check_report_dir", "check_writable_dir", "same_file"]
+
+#: The subdirectories a report command writes into its output directory.
+REPORT_SUBDIRS = ("data", "figures")
 
 Named = tuple[str, str | os.PathLike[str]]
 
@@ -113,4 +116,36 @@ def check_writable_dir(path: str | os.PathLike[str], what: str) -> Path:
         reason = exc.strerror or str(exc)
         where = "" if existing == target else f" (it would be created in {existing})"
         raise OutputError(f"{what} {target} is not writable{where}: {reason}") from exc
+    return target
+
+
+def check_report_dir(
+    path: str | os.PathLike[str], what: str, subdirs: Iterable[str] = REPORT_SUBDIRS
+) -> Path:
+    """:func:`check_writable_dir` for a reports directory, and its ``subdirs`` (relative paths).
+
+    A report command writes its data and figures into subdirectories (``data/``,
+    ``figures/``); a file of one of those names would stop it only when it saves, after all
+    the work. Subdirectories that exist must be writable directories.
+
+    Raises
+    ------
+    OutputError
+        When ``path`` cannot be written, or a subdirectory is a file, a broken symbolic
+        link or not writable.
+    """
+    target = check_writable_dir(path, what)
+    for name in subdirs:
+        sub = target / name
+        if sub.is_symlink() and not sub.exists():
+            raise OutputError(f"{what} {target}: {sub} is a broken symbolic link")
+        if not sub.exists():
+            continue
+        if not sub.is_dir():
+            raise OutputError(f"{what} {target}: {sub} is a file, not a directory")
+        try:
+            with tempfile.TemporaryFile(dir=sub, prefix=".replication-probe-"):
+                pass
+        except OSError as exc:
+            raise OutputError(f"{what} {target}: {sub} is not writable: {exc.strerror or exc}") from exc
     return target
