@@ -315,3 +315,18 @@ def test_a_study_in_which_no_simulation_succeeded_writes_nothing(tmp_path, capsy
         err
     )
     assert not out.exists()
+
+
+def test_from_cache_refuses_rebuilding_the_surfaces(tmp_path, capsys, monkeypatch):
+    # was: the GA and every stage ran (seconds to minutes), ga-runs/ and surfaces/ were written into
+    # the cache --from-cache promised not to change, and only then "37 simulation(s) missing"
+    import replication.experiments.jet_surface_set as surface_set
+
+    monkeypatch.setattr(surface_set, "build_surfaces", lambda *a, **k: pytest.fail("surfaces built"))
+    argv = ["validate-jet", "--quick", "--from-cache", "--rebuild-surfaces", "--cache-dir",
+            str(tmp_path / "empty"), "--output-dir", str(tmp_path / "out")]  # fmt: skip
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "--from-cache changes nothing in the SPH cache, but --rebuild-surfaces" in err, err
+    assert len(err.splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []

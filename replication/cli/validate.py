@@ -28,6 +28,7 @@ cached simulations into misses; --rebuild-surfaces builds them afresh.
 def _cmd_validate(args: argparse.Namespace) -> int:
     from replication.cli.outputs import finish_reports, planned_output_dir
 
+    _check_options(args)
     _check_custom_run(args)
     out = planned_output_dir(args)
     start = time.perf_counter()
@@ -46,6 +47,22 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     for readme in written[1:]:
         print(f"refreshed the headline block of {readme} from {out}/data (the reports beside it)")
     return 0
+
+
+def _check_options(args: argparse.Namespace) -> None:
+    """Refuse options that contradict each other, before any work.
+
+    ``--rebuild-surfaces`` builds the surfaces (running the study's GAs) and stores them in
+    the cache, which ``--from-cache`` promises to leave as it is; whether the cache holds their
+    simulations cannot be known without building them.
+    """
+    from replication.errors import InputError
+
+    if args.from_cache and args.rebuild_surfaces:
+        raise InputError(
+            "--from-cache changes nothing in the SPH cache, but --rebuild-surfaces builds the surfaces "
+            "afresh (running the study's GAs) and stores them there: give one of them"
+        )
 
 
 def _check_custom_run(args: argparse.Namespace) -> None:
@@ -100,7 +117,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--from-cache",
         action="store_true",
-        help="simulate nothing: report from the cache, and fail if a simulation is missing",
+        help="simulate nothing and change nothing in the cache: report from it, and fail if a simulation "
+        "is missing (not with --rebuild-surfaces)",
     )
     p.add_argument("--retry-failed", action="store_true", help="simulate again the failed simulations")
     p.add_argument(
@@ -111,7 +129,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--rebuild-surfaces",
         action="store_true",
-        help="build the surfaces afresh with this code instead of reading the set kept in the cache",
+        help="build the surfaces afresh with this code (running the study's GAs) and store them in the "
+        "cache, instead of reading the set kept there (not with --from-cache)",
     )
     p.add_argument(
         "--workers", type=positive_int, default=2, help="simulations at a time (default 2; each uses a core)"

@@ -114,7 +114,7 @@ def _check_cache(cache: Path, config: Any, args: argparse.Namespace) -> None:
     if args.from_cache:
         if cache.exists() and not cache.is_dir():
             raise InputError(f"{what} {cache} is a file, not a directory")
-        if not args.rebuild_surfaces and not set_path(cache, config).is_file():
+        if not set_path(cache, config).is_file():  # (--rebuild-surfaces is refused with --from-cache)
             raise SimulationError(
                 f"the study's surfaces and simulations are missing from the cache: run without "
                 f"--from-cache (the cache {cache} holds no surface set of this study)"
