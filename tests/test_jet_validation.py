@@ -330,3 +330,38 @@ def test_from_cache_refuses_rebuilding_the_surfaces(tmp_path, capsys, monkeypatc
     assert "--from-cache changes nothing in the SPH cache, but --rebuild-surfaces" in err, err
     assert len(err.splitlines()) == 1
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("quick", "ga_run_dir", "message"),
+    [
+        (True, "ga", "--ga-run-dir ga: the quick study has no GA winners to score"),
+        (True, "afile", "--ga-run-dir afile: the quick study has no GA winners to score"),
+        (False, "afile", "--ga-run-dir afile is a file, not a directory of GA runs"),
+        (False, "afile/sub", "--ga-run-dir afile/sub cannot be created: afile is a file"),
+    ],
+)
+def test_a_ga_run_dir_that_would_be_ignored_or_is_a_file(
+    tmp_path, capsys, monkeypatch, quick, ga_run_dir, message
+):
+    # was: with --quick (no GA) --ga-run-dir was ignored, whatever it named, and the report written
+    import replication.experiments.jet_surface_set as surface_set
+
+    monkeypatch.setattr(surface_set, "build_surfaces", lambda *a, **k: pytest.fail("surfaces built"))
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "afile").write_text("x")
+    quick_flag = ["--quick"] if quick else []
+    argv = [
+        "validate-jet",
+        *quick_flag,
+        "--cache-dir",
+        "cache",
+        "--ga-run-dir",
+        ga_run_dir,
+        "--output-dir",
+        "out",
+    ]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert message in err and len(err.splitlines()) == 1, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]

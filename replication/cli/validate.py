@@ -50,19 +50,36 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _check_options(args: argparse.Namespace) -> None:
-    """Refuse options that contradict each other, before any work.
+    """Refuse options that contradict each other or would be ignored, and a ``--ga-run-dir``
+    that is not a directory, before any work.
 
     ``--rebuild-surfaces`` builds the surfaces (running the study's GAs) and stores them in
     the cache, which ``--from-cache`` promises to leave as it is; whether the cache holds their
-    simulations cannot be known without building them.
+    simulations cannot be known without building them. The quick study has no GA, so
+    ``--ga-run-dir`` would be ignored.
     """
+    from pathlib import Path
+
     from replication.errors import InputError
+    from replication.io.paths import check_writable_dir
 
     if args.from_cache and args.rebuild_surfaces:
         raise InputError(
             "--from-cache changes nothing in the SPH cache, but --rebuild-surfaces builds the surfaces "
             "afresh (running the study's GAs) and stores them there: give one of them"
         )
+    if args.ga_run_dir is None:
+        return
+    if args.quick:
+        raise InputError(
+            f"--ga-run-dir {args.ga_run_dir}: the quick study has no GA winners to score; "
+            "drop --quick or --ga-run-dir"
+        )
+    path = Path(args.ga_run_dir)
+    if path.exists() and not path.is_dir():
+        raise InputError(f"--ga-run-dir {path} is a file, not a directory of GA runs")
+    if not path.exists():  # the GA runs there: it must be possible to create it
+        check_writable_dir(path, "--ga-run-dir")
 
 
 def _check_custom_run(args: argparse.Namespace) -> None:
@@ -124,7 +141,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--ga-run-dir",
         metavar="DIR",
-        help="score the winners of these GA runs (read, or run there) instead of the GA kept in the cache",
+        help="score the winners of these GA runs (read, or run there) instead of the GA kept in the cache "
+        "(not with --quick, whose study has no GA)",
     )
     p.add_argument(
         "--rebuild-surfaces",
