@@ -32,6 +32,7 @@ def no_experiment(monkeypatch):
 
     monkeypatch.setattr("replication.experiments.table1.run_table1", started)
     monkeypatch.setattr("replication.experiments.casestudy.run_casestudy", started)
+    return started
 
 
 # ---- output and run directories, checked before any experiment ---------------------------------
@@ -78,12 +79,8 @@ COMMANDS_WRITING_REPORTS = [
 def test_a_file_where_the_reports_subdirectory_goes(capsys, tmp_path, monkeypatch, no_experiment, argv, name):
     """A file named data or figures in the output directory: refused before the work, which
     otherwise ended in "unexpected FileExistsError" when the results were saved."""
-
-    def started(*args, **kwargs):
-        raise AssertionError("the experiment started before the output checks")
-
-    monkeypatch.setattr("replication.experiments.jet_validation.run_validation", started)
-    monkeypatch.setattr("replication.experiments.sph.run_sph_study", started)
+    monkeypatch.setattr("replication.experiments.jet_validation.run_validation", no_experiment)
+    monkeypatch.setattr("replication.experiments.sph.run_sph_study", no_experiment)
     monkeypatch.setattr("replication.casestudy.sph.require_engine", lambda: None)
     monkeypatch.chdir(tmp_path)
     (tmp_path / "out" / name).parent.mkdir(parents=True, exist_ok=True)
@@ -94,6 +91,28 @@ def test_a_file_where_the_reports_subdirectory_goes(capsys, tmp_path, monkeypatc
     assert code == 1 and one_line(err, argv[0]), err
     assert f"--output-dir out: out/{name} is a file, not a directory" in err
     assert sorted(tmp_path.rglob("*")) == before
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["validate-jet", "--quick", "--cache-dir", "{bad}", "--output-dir", "out"],
+        ["casestudy", *TINY, "--rescore", "sph", "--cache-dir", "{bad}", "--run-dir", "run"],
+        ["casestudy", *TINY, "--solver", "sph", "--cache-dir", "{bad}", "--run-dir", "run"],
+    ],
+)
+def test_an_sph_cache_that_is_not_utf8_is_refused(capsys, tmp_path, monkeypatch, no_experiment, argv):
+    # was: every simulation recorded in the cache as a crash (the engine's binding takes UTF-8 paths)
+    import os
+
+    monkeypatch.setattr("replication.experiments.jet_validation.run_validation", no_experiment)
+    monkeypatch.setattr("replication.casestudy.sph.require_engine", lambda: None)
+    monkeypatch.chdir(tmp_path)
+    argv = [a.format(bad=os.fsdecode(b"cache\xff")) for a in argv]
+    code, _, err = run(capsys, *argv)
+    assert code == 1 and one_line(err, argv[0]), err
+    assert "--cache-dir cache\\udcff: the SPH engine needs a path that is valid UTF-8" in err
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.skipif(not __import__("os").path.isdir("/sys/kernel"), reason="needs sysfs (refuses new files)")

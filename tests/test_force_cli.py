@@ -213,6 +213,34 @@ def test_an_sph_run_directory_that_is_a_file_is_one_line(capsys, bucket_csv, tmp
     assert (tmp_path / "afile").read_text() == "hi\n"
 
 
+@pytest.mark.parametrize("where", ["name", "working directory"])
+def test_an_sph_run_directory_that_is_not_utf8_is_refused(capsys, bucket_csv, tmp_path, monkeypatch, where):
+    # was: a 6-line "SPH simulation failed (crash): ... TypeError: init(): incompatible function
+    # arguments": the engine's binding takes its (absolute) paths as UTF-8 text
+    import os
+
+    from replication.casestudy import sph
+
+    monkeypatch.setattr(sph, "require_engine", lambda: None)
+    monkeypatch.setattr(sph, "sph_force", lambda *a, **k: pytest.fail("the simulation started"))
+    bad = os.fsdecode(b"sph\xff")
+    if where == "working directory":
+        (tmp_path / bad).mkdir()
+        monkeypatch.chdir(tmp_path / bad)
+        run_dir, match = (
+            "run",
+            r"--run-dir run: .* valid UTF-8, and its absolute path .*sph\\udcff.*run is not",
+        )
+    else:
+        run_dir, match = (
+            str(tmp_path / bad),
+            r"--run-dir .*sph\\udcff: the SPH engine needs a path that is valid UTF-8$",
+        )
+    with pytest.raises(InputError, match=match):
+        run(capsys, "force", str(bucket_csv), "--solver", "sph", "--run-dir", run_dir)
+    assert not (tmp_path / bad / "run").exists() and not (tmp_path / "run").exists()
+
+
 @pytest.mark.skipif(not engine_available(), reason='the SPH engine is not installed (pip install ".[sph]")')
 def test_an_earlier_simulations_run_directory_is_reused(capsys, bucket_csv, tmp_path):
     """What the engine writes is what the run-directory check calls a simulation's own."""

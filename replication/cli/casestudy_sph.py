@@ -97,10 +97,12 @@ def rescore_config(args: argparse.Namespace, config: Any) -> Any:
     from replication.casestudy.rescore import RescoreConfig
     from replication.casestudy.sph.settings import SPHSettings, timeline
     from replication.casestudy.sph_batch import default_cache_dir
-    from replication.io.paths import check_writable_dir
+    from replication.io.paths import check_utf8_path, check_writable_dir
 
     cache = Path(args.cache_dir) if args.cache_dir else default_cache_dir()
-    check_writable_dir(cache, "--cache-dir" if args.cache_dir else "the SPH cache")
+    what = "--cache-dir" if args.cache_dir else "the SPH cache"
+    check_writable_dir(cache, what)
+    check_utf8_path(cache, what)  # the engine simulates into it
     sph.require_engine()
     changes: dict[str, Any] = {}
     if args.particle_radius is not None:

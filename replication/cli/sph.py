@@ -92,10 +92,12 @@ SIMULATION_ENTRIES = frozenset(
 def _check_run_dir(run_dir: str) -> None:
     """``--run-dir`` must be new, empty or an earlier simulation's: the simulation replaces
     scene.json, steps.csv, series.csv, result.json, ... there, and deleted a user's files of
-    those names without a word. A ``--run-dir`` naming a file is refused too."""
+    those names without a word. A ``--run-dir`` naming a file is refused too, and one whose
+    absolute path is not UTF-8 (the engine cannot be given it)."""
     from replication.errors import InputError
-    from replication.io.paths import check_writable_dir
+    from replication.io.paths import check_utf8_path, check_writable_dir
 
+    check_utf8_path(run_dir, "--run-dir")  # the engine's binding: every simulation crashed
     path = check_writable_dir(run_dir, "--run-dir")
     if not path.is_dir():
         return

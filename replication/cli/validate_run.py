@@ -101,14 +101,15 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
 
 
 def _check_cache(cache: Path, config: Any, args: argparse.Namespace) -> None:
-    """Refuse, before any work, a cache that is a file or (with --from-cache) that lacks the study.
+    """Refuse, before any work, a cache that is a file, (with --from-cache) that lacks the study,
+    or (simulating into it) whose absolute path is not UTF-8: the SPH engine cannot be given it.
 
     Without its stored surface set, ``--from-cache`` would first run the study's GAs only to
     find every simulation missing.
     """
     from replication.errors import InputError, SimulationError
     from replication.experiments.jet_surface_set import set_path
-    from replication.io.paths import check_writable_dir
+    from replication.io.paths import check_utf8_path, check_writable_dir
 
     what = "--cache-dir" if args.cache_dir else "the SPH cache"
     if args.from_cache:
@@ -119,8 +120,9 @@ def _check_cache(cache: Path, config: Any, args: argparse.Namespace) -> None:
                 f"the study's surfaces and simulations are missing from the cache: run without "
                 f"--from-cache (the cache {cache} holds no surface set of this study)"
             )
-    else:
+    else:  # the engine simulates into the cache
         check_writable_dir(cache, what)
+        check_utf8_path(cache, what)
 
 
 def reproduce_stage(out: Path, quick: bool, command: str) -> tuple[Path | None, str]:

@@ -15,9 +15,16 @@ import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 
-from replication.errors import OutputError
+from replication.errors import InputError, OutputError
 
-__all__ = ["REPORT_SUBDIRS", "check_distinct", "check_report_dir", "check_writable_dir", "same_file"]
+__all__ = [
+    "REPORT_SUBDIRS",
+    "check_distinct",
+    "check_report_dir",
+    "check_utf8_path",
+    "check_writable_dir",
+    "same_file",
+]
 
 #: The subdirectories a report command writes into its output directory.
 REPORT_SUBDIRS = ("data", "figures")
@@ -149,3 +156,42 @@ def check_report_dir(
         except OSError as exc:
             raise OutputError(f"{what} {target}: {sub} is not writable: {exc.strerror or exc}") from exc
     return target
+
+
+def _escaped(path: Path) -> str:
+    """``path`` for a message, its bytes that are not UTF-8 shown as ``\\udcff``: printable on any stream."""
+    return str(path).encode("utf-8", "backslashreplace").decode("utf-8")
+
+
+def check_utf8_path(path: str | os.PathLike[str], what: str, needed_by: str = "the SPH engine") -> Path:
+    """Refuse a path whose absolute form is not valid UTF-8 (a name Python holds with surrogate escapes).
+
+    The SPH engine's binding takes its paths as UTF-8 text and is given absolute ones: a
+    directory name that is not UTF-8, or one under a working directory whose path is not,
+    made every simulation crash with a TypeError. ``what`` names the option in the message.
+
+    Returns the absolute path.
+
+    Raises
+    ------
+    InputError
+        Naming the path (and its absolute form, when only that is not UTF-8).
+    """
+    given = Path(path)
+    try:
+        absolute = given.resolve()
+    except (OSError, RuntimeError):  # a loop of symbolic links: the caller's other checks name it
+        absolute = Path(os.path.abspath(given))
+    try:
+        os.fsencode(absolute).decode("utf-8")
+    except UnicodeDecodeError:
+        try:
+            os.fsencode(given).decode("utf-8")
+        except UnicodeDecodeError:
+            where = ""
+        else:
+            where = f", and its absolute path {_escaped(absolute)} is not"
+        raise InputError(
+            f"{what} {_escaped(given)}: {needed_by} needs a path that is valid UTF-8{where}"
+        ) from None
+    return absolute
