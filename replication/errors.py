@@ -12,6 +12,7 @@ from __future__ import annotations
 
 __all__ = [
     "shown",
+    "shortened",
     "ReplicationError",
     "InputError",
     "CloudFileError",
@@ -31,6 +32,13 @@ def shown(indices, limit: int = 10) -> str:
     """``"3, 7, 12, ..."``: the first ``limit`` indices for an error message."""
     items = [str(int(i)) for i in list(indices)[: limit + 1]]
     return ", ".join(items[:limit]) + (", ..." if len(items) > limit else "")
+
+
+def shortened(name: object, head: int = 40, tail: int = 20) -> str:
+    """A file name for a one-line message: a very long one keeps its first ``head`` and last
+    ``tail`` characters (a 300-character name that the system refused filled the terminal)."""
+    text = str(name)
+    return text if len(text) <= head + tail + 3 else f"{text[:head]}...{text[-tail:]}"
 
 
 class ReplicationError(Exception):

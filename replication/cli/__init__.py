@@ -2,9 +2,11 @@
 
 Only this package prints or sets an exit status: library errors (:class:`ReplicationError`)
 become a one-line message on stderr and exit status 1; usage errors exit with status 2
-(argparse); an interrupt (Ctrl-C) exits with 130. Any other exception is a bug or an
-environment problem nobody foresaw: it too becomes one line, naming its type, with a hint
-to run again with ``--debug`` for the traceback.
+(argparse); an interrupt (Ctrl-C) exits with 130. The system refusing a file the user named
+(an operating-system error that carries the file name, such as a name too long) and a lack
+of memory are one line too, saying so. Any other exception is a bug or an environment
+problem nobody foresaw: it too becomes one line, naming its type, with a hint to run again
+with ``--debug`` for the traceback.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import shlex
 import sys
 from collections.abc import Callable, Iterable, Sequence
 
-from replication.errors import ReplicationError
+from replication.errors import ReplicationError, shortened
 
 __all__ = ["COMMANDS", "build_parser", "main", "run"]
 
@@ -131,6 +133,21 @@ def _one_line(exc: BaseException) -> str:
     return f"unexpected {type(exc).__name__}: {text}"
 
 
+def _refused(exc: BaseException) -> str | None:
+    """The message of an error that is no bug but the system's answer: a path it refused (an
+    ``OSError`` naming a file, such as ``File name too long``) or an allocation it refused."""
+    if isinstance(exc, MemoryError):
+        text = " ".join(str(exc).split())
+        return f"not enough memory{f': {text}' if text else ''}"
+    if isinstance(exc, OSError) and exc.filename is not None:
+        reason = exc.strerror or " ".join(str(exc).split()) or type(exc).__name__
+        names = shortened(os.fsdecode(exc.filename))
+        if exc.filename2 is not None:
+            names += f" -> {shortened(os.fsdecode(exc.filename2))}"
+        return f"{names}: {reason}"
+    return None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``replication`` command; returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -162,7 +179,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 130
         if args.debug:
             raise
-        print(f"{name}: error: {_one_line(exc)} (run with --debug for the traceback)", file=sys.stderr)
+        refused = _refused(exc)
+        if refused is not None:
+            print(f"{name}: error: {refused}", file=sys.stderr)
+        else:
+            print(f"{name}: error: {_one_line(exc)} (run with --debug for the traceback)", file=sys.stderr)
         return 1
 
 
