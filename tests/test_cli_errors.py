@@ -408,6 +408,62 @@ def test_build_seconds_excludes_loading_the_kernels(capsys, monkeypatch):
     assert report["build_seconds"] == 0.25 and report["startup_seconds"] == 0.5
 
 
+# ---- file names the system refuses ---------------------------------------------------------------
+
+LONG = "a" * 300  # longer than any file system's 255-byte limit on one name: ENAMETOOLONG
+
+
+@pytest.mark.parametrize(
+    "argv, match",
+    [
+        (["adt", "--random", "50", "--seed", "1", "-o", f"{LONG}.vtk"], "cannot write"),
+        (["adt", f"{LONG}.csv"], "cannot read the point-cloud file"),
+        (["adt", "--random", "50", "--save-cloud", f"{LONG}.csv"], "cannot write"),
+        (["nurbs", "--random", "50", "-o", f"{LONG}.json"], "cannot write"),
+        (["compare", f"{LONG}.npy"], "cannot read the point-cloud file"),
+        (["force", f"{LONG}.vtk"], "cannot read the surface file"),
+        (["report", "--output-dir", LONG], "reports directory"),
+        (["table1", "--quick", "--output-dir", LONG], ""),
+        (["casestudy", "--quick", "--run-dir", LONG], "--run-dir"),
+        (["casestudy", *TINY, "--output-dir", LONG, "--run-dir", "run"], ""),
+    ],
+)
+def test_a_file_name_too_long_is_one_line_naming_it(
+    capsys, tmp_path, monkeypatch, no_experiment, argv, match
+):
+    # was: "unexpected OSError: [Errno 36] File name too long: 'aaaa...' (run with --debug ...)"
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run(capsys, *argv)
+    assert code == 1 and one_line(err, argv[0]), err
+    assert match in err and "File name too long" in err and f"{'a' * 40}...{'a' * 10}" in err, err
+    assert "unexpected" not in err and "--debug" not in err and len(err) < 200, err
+
+
+def test_system_refusals_are_one_line_without_the_debug_hint(capsys, monkeypatch):
+    import errno
+
+    def refuse(exc):
+        def command(args):
+            raise exc
+
+        monkeypatch.setattr("replication.cli.surfaces._cmd_adt", command)
+
+    refuse(OSError(errno.EACCES, "Permission denied", "/some/file.vtk"))
+    code, _, err = run(capsys, "adt", "--random", "5")
+    assert code == 1 and err == "replication adt: error: /some/file.vtk: Permission denied\n", err
+    refuse(MemoryError("Unable to allocate 74.5 GiB for an array with shape (10000000000,)"))
+    code, _, err = run(capsys, "adt", "--random", "5")
+    assert code == 1 and one_line(err, "adt"), err
+    assert "error: not enough memory: Unable to allocate 74.5 GiB" in err and "unexpected" not in err
+    refuse(OSError("no file named"))  # an OSError without a file name: still unexpected
+    code, _, err = run(capsys, "adt", "--random", "5")
+    assert code == 1 and "unexpected OSError: no file named" in err and "--debug" in err
+    for exc in (MemoryError("out"), OSError(errno.ENAMETOOLONG, "File name too long", LONG)):
+        refuse(exc)
+        with pytest.raises(type(exc)):
+            main(["adt", "--random", "5", "--debug"])
+
+
 # ---- the catch-all ------------------------------------------------------------------------------
 
 

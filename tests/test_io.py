@@ -736,3 +736,19 @@ def test_the_temporary_of_a_killed_write_is_removed_by_the_next_write(surface, t
     assert (tmp_path / name).is_file()
     write_vtk(surface, tmp_path / "s.vtk")
     assert sorted(p.name for p in tmp_path.iterdir()) == [".s.vtk.1.ffffffff-abc.tmp.vtk", "s.vtk"]
+
+
+def test_a_file_name_too_long_is_an_input_or_output_error(surface, tmp_path):
+    # Python 3.11's Path.exists()/is_dir()/is_symlink() raise OSError on ENAMETOOLONG
+    long = tmp_path / ("a" * 300)
+    with pytest.raises(
+        CloudFileError, match=r"cannot read the point-cloud file .*\.\.\..*: File name too long"
+    ):
+        load_cloud(f"{long}.csv")
+    with pytest.raises(CloudFileError, match=r"cannot read the surface file .*: File name too long"):
+        read_surface(f"{long}.vtk")
+    with pytest.raises(OutputError, match=r"cannot write .*: File name too long"):
+        write_surface(surface, f"{long}.vtk")
+    with pytest.raises(OutputError, match=r"cannot write .*: File name too long"):
+        save_cloud(CLOUD, f"{long}.npy")
+    assert list(tmp_path.iterdir()) == []

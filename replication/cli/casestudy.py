@@ -161,7 +161,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     from replication.casestudy.checkpoints import load_run
     from replication.casestudy.evaluate import check_executor_options
     from replication.casestudy.rundir import checkpoints, read_config
-    from replication.errors import InputError
+    from replication.errors import InputError, shortened
     from replication.io.paths import check_report_dir, check_writable_dir
 
     check_executor_options(args.executor, args.workers, args.scheduler)
@@ -174,7 +174,11 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     else:
         config = _requested_config(args)
         run_dir = Path(args.run_dir) if args.run_dir else _new_run_dir()
-        if run_dir.is_dir():
+        try:
+            existing = run_dir.is_dir()
+        except OSError as exc:  # Python 3.11's Path.is_dir() raises on a name too long
+            raise InputError(f"--run-dir {shortened(run_dir)}: {exc.strerror or exc}") from exc
+        if existing:
             found = checkpoints(run_dir)
             if found:
                 raise InputError(

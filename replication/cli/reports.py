@@ -110,15 +110,19 @@ def _check_readme(readme: str, out: Path) -> Path:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from replication.errors import ReportDataError
+    from replication.errors import ReportDataError, shortened
     from replication.io.paths import check_report_dir, same_file
     from replication.report.casestudy import render_casestudy
     from replication.report.index import update_readme
     from replication.report.table1 import render_table1
 
     out = Path(args.output_dir or DEFAULT_DIR)
-    if not out.is_dir():
-        what = "is a file" if out.exists() else "does not exist"
+    try:
+        is_dir, exists = out.is_dir(), out.exists()
+    except OSError as exc:  # Python 3.11's Path.is_dir() raises on a name too long
+        raise ReportDataError(f"reports directory {shortened(out)}: {exc.strerror or exc}") from exc
+    if not is_dir:
+        what = "is a file" if exists else "does not exist"
         raise ReportDataError(f"reports directory {out} {what}: run `replication reproduce` first")
     check_report_dir(out, "--output-dir" if args.output_dir else "the reports directory")
     readme = _check_readme(args.readme, out) if args.readme else None

@@ -16,7 +16,7 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-from replication.errors import OutputError
+from replication.errors import OutputError, shortened
 
 __all__ = [
     "atomic_path",
@@ -34,7 +34,16 @@ def check_output_path(path: str | os.PathLike[str]) -> Path:
     A symbolic link is followed: the file it points to is written and the link stays (a
     rename onto the link itself would replace it with a regular file).
     """
-    given = path = Path(path)
+    try:
+        return _check_output_path(Path(path))
+    except OutputError:
+        raise
+    except OSError as exc:  # Python 3.11's Path.is_symlink()/is_dir() raise on a name too long
+        raise OutputError(f"cannot write {shortened(path)}: {exc.strerror or exc}") from exc
+
+
+def _check_output_path(path: Path) -> Path:
+    given = path
     via = ""
     if path.is_symlink():
         try:
