@@ -304,6 +304,37 @@ def test_tessellation_that_cannot_fit_in_memory(capsys):
     assert "needs about 4.09 TiB of memory" in err and "10,000,000,000 samples" in err
 
 
+def test_compare_samples_that_cannot_fit_in_memory(capsys):
+    # was: "unexpected MemoryError: Unable to allocate 74.5 GiB" after building both surfaces
+    code, _, err = run(capsys, "compare", "--random", "20", "--seed", "1", "--samples", "100000x100000")
+    assert code == 1 and one_line(err, "compare"), err
+    assert "--samples 100000x100000 needs about 1.46 TiB of memory" in err and "choose fewer samples" in err
+
+
+def test_a_random_cloud_that_cannot_fit_in_memory_is_refused_before_it_is_drawn(
+    capsys, tmp_path, monkeypatch
+):
+    # was: "unexpected MemoryError" at 1e11 points, and the kernel's OOM killer at 1e9
+    def drawn(*args, **kwargs):
+        raise AssertionError("the cloud was drawn before the memory check")
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("replication.surfaces.random_cloud", drawn)
+    code, _, err = run(capsys, "adt", "--random", "100000000000", "--seed", "1")
+    assert code == 1 and one_line(err, "adt") and "unexpected" not in err, err
+    assert "--random 100000000000 needs about 27.3 TiB of memory" in err and "choose fewer points" in err
+    monkeypatch.setattr("replication.cli.resources.available_memory", lambda: 2**30)  # 1 GiB free
+    for argv, need in (
+        (["adt", "--random", "4000000"], "1.12 GiB"),
+        (["adt", "--random", "1000000", "-o", "out.vtk"], "1.02 GiB"),
+        (["nurbs", "--random", "2000000"], "1.86 GiB"),
+        (["compare", "--random", "1000000"], "1.58 GiB"),
+    ):
+        code, _, err = run(capsys, *argv)
+        assert code == 1 and one_line(err, argv[0]) and f"needs about {need} of memory" in err, err
+        assert "1 GiB is available" in err
+
+
 def test_margin_and_alpha_must_be_finite(capsys):
     for option, value in (("--margin", "inf"), ("--margin", "nan"), ("--margin", "-0.1"), ("--alpha", "1.5")):
         with pytest.raises(SystemExit) as exc:

@@ -7,6 +7,7 @@ from typing import Any
 
 from replication.cli.common import emit_json, frame_kwargs, load_or_generate, relay_warnings
 from replication.cli.files import check_outputs, save_generated_cloud, write_all_or_none
+from replication.cli.resources import check_compare_samples
 
 __all__ = ["EPILOG_COMPARE", "cmd_compare"]
 
@@ -64,6 +65,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from replication.compare import compare
 
     check_outputs(args)
+    if args.samples is not None:  # was: "unexpected MemoryError" after building both surfaces
+        check_compare_samples(args.samples)
     with relay_warnings():
         cloud, source, meta = load_or_generate(args)
         result = compare(
