@@ -373,6 +373,17 @@ def test_random_bytes_npy_never_advises_pickle(capsys, tmp_path):
         assert "allow_pickle" not in err and "pickle.load" not in err
 
 
+def test_npy_cut_short_or_not_coordinates_is_one_line(capsys, tmp_path):
+    import io
+
+    buf = io.BytesIO()  # a header claiming 10**11 points, and no data: was "unexpected MemoryError"
+    np.lib.format.write_array_header_1_0(buf, {"descr": "<f8", "fortran_order": False, "shape": (10**11, 3)})
+    (tmp_path / "bighdr.npy").write_bytes(buf.getvalue())
+    for name, match in (("bighdr.npy", "truncated or damaged"),):
+        code, _, err = run(capsys, "adt", tmp_path / name)
+        assert code == 1 and one_line(err, "adt") and match in err and "unexpected" not in err, err
+
+
 def test_underflowing_coordinates_are_named(capsys, tmp_path):
     """Tiny clouds are scaled exactly and triangulate; a projection axis whose extent is tiny
     next to the coordinates underflows and is named as such (not as collinear)."""

@@ -752,3 +752,32 @@ def test_a_file_name_too_long_is_an_input_or_output_error(surface, tmp_path):
     with pytest.raises(OutputError, match=r"cannot write .*: File name too long"):
         save_cloud(CLOUD, f"{long}.npy")
     assert list(tmp_path.iterdir()) == []
+
+
+def _npy_header_only(path, shape, version=(1, 0)):
+    import io
+
+    buf = io.BytesIO()
+    header = {"descr": "<f8", "fortran_order": False, "shape": shape}
+    write = (
+        np.lib.format.write_array_header_1_0 if version == (1, 0) else np.lib.format.write_array_header_2_0
+    )
+    write(buf, header)
+    path.write_bytes(buf.getvalue() + b"\0" * 5)
+
+
+@pytest.mark.parametrize("version", [(1, 0), (2, 0)])
+def test_a_npy_shorter_than_its_header_says_is_refused_before_allocating(tmp_path, version):
+    # was: "unexpected MemoryError: Unable to allocate 2.18 TiB" for a header claiming 10**11 points
+    _npy_header_only(tmp_path / "big.npy", (10**11, 3), version)
+    with pytest.raises(
+        CloudFileError, match=r"truncated or damaged: its header announces shape \(100000000000, 3\)"
+    ):
+        load_cloud(tmp_path / "big.npy")
+    np.save(tmp_path / "ok.npy", CLOUD)
+    (tmp_path / "cut.npy").write_bytes((tmp_path / "ok.npy").read_bytes()[:-8])
+    with pytest.raises(CloudFileError, match=f"{CLOUD.size * 8:,} bytes of data, but the file holds"):
+        load_cloud(tmp_path / "cut.npy")
+    (tmp_path / "magic.npy").write_bytes(b"\x93NUMPY")
+    with pytest.raises(CloudFileError, match="damaged header"):
+        load_cloud(tmp_path / "magic.npy")

@@ -13,6 +13,7 @@ and, where it applies, the line.
 from __future__ import annotations
 
 import io
+import math
 import os
 import warnings
 from pathlib import Path
@@ -169,11 +170,38 @@ def _header_order(tokens: list[str]) -> list[int] | None:
 _NPY_MAGIC = b"\x93NUMPY"
 
 
+def _check_npy_size(path: Path, handle: io.BufferedReader) -> None:
+    """Refuse a ``.npy`` file shorter than the array its header announces, before numpy
+    allocates that array (a header claiming 10**11 points ended in a 2.18 TiB MemoryError)."""
+    handle.seek(0)
+    try:
+        version = np.lib.format.read_magic(handle)
+        if version == (1, 0):
+            shape, _, dtype = np.lib.format.read_array_header_1_0(handle)
+        elif version == (2, 0):
+            shape, _, dtype = np.lib.format.read_array_header_2_0(handle)
+        else:  # 3.0 only adds UTF-8 field names of structured arrays: no point coordinates
+            return  # numpy's own reading says what it makes of it
+    except ValueError as exc:
+        raise CloudFileError(f"{path}: not a readable .npy array (damaged header: {exc})") from exc
+    if dtype.hasobject:  # pickled: no fixed size, and refused as such by the reading
+        return
+    need = math.prod(shape) * dtype.itemsize
+    held = os.fstat(handle.fileno()).st_size - handle.tell()
+    if held < need:
+        raise CloudFileError(
+            f"{path}: not a readable .npy array (truncated or damaged: its header announces shape "
+            f"{tuple(shape)} of {dtype}, {need:,} bytes of data, but the file holds {held:,})"
+        )
+
+
 def _load_npy(path: Path) -> np.ndarray:
     """A numeric ``.npy`` array; never unpickled, and numpy's advice to unpickle is not relayed."""
     try:
         with open(path, "rb") as handle:
             magic = handle.read(len(_NPY_MAGIC))
+            if magic == _NPY_MAGIC:
+                _check_npy_size(path, handle)
     except OSError as exc:
         raise CloudFileError(f"{path}: cannot read the file ({exc.strerror or exc})") from exc
     if magic != _NPY_MAGIC:
