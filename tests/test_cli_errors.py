@@ -379,7 +379,13 @@ def test_npy_cut_short_or_not_coordinates_is_one_line(capsys, tmp_path):
     buf = io.BytesIO()  # a header claiming 10**11 points, and no data: was "unexpected MemoryError"
     np.lib.format.write_array_header_1_0(buf, {"descr": "<f8", "fortran_order": False, "shape": (10**11, 3)})
     (tmp_path / "bighdr.npy").write_bytes(buf.getvalue())
-    for name, match in (("bighdr.npy", "truncated or damaged"),):
+    np.save(tmp_path / "bool.npy", np.ones((5, 3), dtype=bool))
+    np.save(tmp_path / "date.npy", np.zeros((5, 3), dtype="M8[s]"))
+    for name, match in (
+        ("bighdr.npy", "truncated or damaged"),
+        ("bool.npy", "got booleans (dtype bool)"),
+        ("date.npy", "got dates and times (dtype datetime64[s])"),
+    ):
         code, _, err = run(capsys, "adt", tmp_path / name)
         assert code == 1 and one_line(err, "adt") and match in err and "unexpected" not in err, err
 

@@ -781,3 +781,22 @@ def test_a_npy_shorter_than_its_header_says_is_refused_before_allocating(tmp_pat
     (tmp_path / "magic.npy").write_bytes(b"\x93NUMPY")
     with pytest.raises(CloudFileError, match="damaged header"):
         load_cloud(tmp_path / "magic.npy")
+
+
+@pytest.mark.parametrize(
+    "values, match",
+    [
+        (CLOUD > 1, r"got booleans \(dtype bool\)"),
+        (CLOUD.astype("int64").astype("M8[D]"), r"got dates and times \(dtype datetime64\[D\]\)"),
+        (CLOUD.astype("int64").astype("m8[s]"), r"got time spans \(dtype timedelta64\[s\]\)"),
+    ],
+)
+def test_booleans_and_times_are_not_coordinates(tmp_path, values, match):
+    # were: converted to numbers without a word (True -> 1, a date -> days since 1970)
+    np.save(tmp_path / "c.npy", values)
+    with pytest.raises(CloudFileError, match=match):
+        load_cloud(tmp_path / "c.npy")
+    with pytest.raises(InputError, match=match):
+        adt(values)
+    with pytest.raises(InputError, match=match):
+        adt(values.tolist() if values.dtype.kind == "b" else values)

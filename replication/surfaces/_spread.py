@@ -94,7 +94,7 @@ def validated_cloud(points: ArrayLike) -> tuple[np.ndarray, tuple[float, float, 
     at unit scale (:func:`_rescaled_spreads`).
     """
     cloud = None
-    if type(points) is np.ndarray and points.dtype.kind in "fiub":  # subclasses (masked) take as_cloud
+    if type(points) is np.ndarray and points.dtype.kind in "fiu":  # others (masked, bool) take as_cloud
         cloud = np.asarray(points, dtype=np.float64)
     if cloud is None or cloud.ndim != 2 or cloud.shape[1] != 3 or cloud.shape[0] == 0:
         cloud = as_cloud(points)  # the checks, with their messages

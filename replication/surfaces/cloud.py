@@ -147,6 +147,10 @@ def make_rng(rng: RNGLike) -> np.random.Generator:
     return generator(rng)
 
 
+#: numpy kinds that numpy converts to float64 silently but that are no coordinates.
+_NOT_COORDINATES = {"b": "booleans", "M": "dates and times", "m": "time spans"}
+
+
 def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
     """Validate a point cloud and return it as a float64 array of shape (n, 3).
 
@@ -162,10 +166,14 @@ def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
             "hidden under the mask; drop those points or fill them first"
         )
     try:
-        complex_values = (points if isinstance(points, np.ndarray) else np.asarray(points)).dtype.kind == "c"
-        arr = None if complex_values else np.asarray(points, dtype=np.float64)
+        kind = (points if isinstance(points, np.ndarray) else np.asarray(points)).dtype.kind
+        complex_values = kind == "c"
+        arr = None if complex_values or kind in _NOT_COORDINATES else np.asarray(points, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise InputError(f"{name} must be numeric, got {type(points).__name__}: {exc}") from exc
+    if kind in _NOT_COORDINATES:  # numpy converts them to numbers without a word
+        dtype = (points if isinstance(points, np.ndarray) else np.asarray(points)).dtype
+        raise InputError(f"{name} must be coordinates, got {_NOT_COORDINATES[kind]} (dtype {dtype})")
     if arr is None:
         raise InputError(
             f"{name} must be real numbers, got complex values (numpy would drop the imaginary parts)"
