@@ -471,9 +471,10 @@ LONG = "a" * 300  # longer than any file system's 255-byte limit on one name: EN
         (["compare", f"{LONG}.npy"], "cannot read the point-cloud file"),
         (["force", f"{LONG}.vtk"], "cannot read the surface file"),
         (["report", "--output-dir", LONG], "reports directory"),
-        (["table1", "--quick", "--output-dir", LONG], ""),
+        (["table1", "--quick", "--output-dir", LONG], "--output-dir"),
+        (["sph", "--quick", "--output-dir", LONG], "--output-dir"),
         (["casestudy", "--quick", "--run-dir", LONG], "--run-dir"),
-        (["casestudy", *TINY, "--output-dir", LONG, "--run-dir", "run"], ""),
+        (["casestudy", *TINY, "--output-dir", LONG, "--run-dir", "run"], "--output-dir"),
     ],
 )
 def test_a_file_name_too_long_is_one_line_naming_it(

@@ -259,8 +259,8 @@ def _cmd_sph(args: argparse.Namespace) -> int:
     from replication.casestudy.sph import require_engine
     from replication.cli.outputs import finish_reports, planned_output_dir
 
-    require_engine()
     out = planned_output_dir(args)
+    require_engine()
     start = time.perf_counter()
     path = run_sph_report(out, args.quick, args.invocation)
     written = finish_reports(out)

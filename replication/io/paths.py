@@ -15,7 +15,7 @@ import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 
-from replication.errors import InputError, OutputError
+from replication.errors import InputError, OutputError, shortened
 
 __all__ = [
     "REPORT_SUBDIRS",
@@ -92,6 +92,19 @@ def check_distinct(outputs: Iterable[Named], inputs: Iterable[Named] = ()) -> No
                 )
 
 
+def _nearest_existing(target: Path, what: str) -> Path:
+    """``target`` or its nearest ancestor that exists."""
+    existing = target
+    while not existing.exists():
+        if existing.is_symlink():
+            raise OutputError(f"{what} {target}: {existing} is a broken symbolic link")
+        parent = existing.parent
+        if parent == existing:
+            break
+        existing = parent
+    return existing
+
+
 def check_writable_dir(path: str | os.PathLike[str], what: str) -> Path:
     """Check, without creating it, that directory ``path`` exists or can be created, and is writable.
 
@@ -105,14 +118,10 @@ def check_writable_dir(path: str | os.PathLike[str], what: str) -> Path:
         When ``path`` (or an ancestor) is a file, or no file can be created there.
     """
     target = Path(path)
-    existing = target
-    while not existing.exists():
-        if existing.is_symlink():
-            raise OutputError(f"{what} {target}: {existing} is a broken symbolic link")
-        parent = existing.parent
-        if parent == existing:
-            break
-        existing = parent
+    try:
+        existing = _nearest_existing(target, what)
+    except OSError as exc:  # Python 3.11's Path.exists() raises on a name too long
+        raise OutputError(f"{what} {shortened(target)}: {exc.strerror or exc}") from exc
     if not existing.is_dir():
         where = "is a file" if existing == target else f"cannot be created: {existing} is a file"
         raise OutputError(f"{what} {target} {where}, not a directory")
