@@ -254,10 +254,12 @@ def test_a_header_naming_the_axes_says_which_column_is_which(tmp_path, header):
 
     rows = "".join(f"{z},{x},{y}\n" for x, y, z in CLOUD)
     (tmp_path / "zxy.csv").write_text(f"{header}\n{rows}")
-    with pytest.warns(CloudFileWarning, match=r"names the columns, so they were read as .* \(x, y, z\)"):
+    with pytest.warns(
+        CloudFileWarning, match=r"in another order, so x, y and z were read from columns 2, 3 and 1"
+    ):
         np.testing.assert_array_equal(load_cloud(tmp_path / "zxy.csv"), CLOUD)
     (tmp_path / "zxy.txt").write_text("Z X Y\n" + rows.replace(",", " "))
-    with pytest.warns(CloudFileWarning, match="read as X, Y, Z"):
+    with pytest.warns(CloudFileWarning, match=r"columns 2, 3 and 1 \(X, Y, Z\)"):
         np.testing.assert_array_equal(load_cloud(tmp_path / "zxy.txt"), CLOUD)
     (tmp_path / "labels.csv").write_text(
         "east,north,height\n" + "".join(f"{x},{y},{z}\n" for x, y, z in CLOUD)
@@ -281,6 +283,9 @@ def test_a_header_naming_the_axes_says_which_column_is_which(tmp_path, header):
         ("h.dat", "1 2 3\n", "unsupported point-cloud file type '.dat'"),
         ("i.txt", b"\xff\xfe\x00binary", "not a UTF-8 text file"),
         ("j.npy", b"not numpy", "not a .npy array file"),
+        # was "the file has a header but no data lines": the NUL bytes made one header-like line
+        ("k.csv", b"\x00" * 100, r"not a text file \(it holds NUL bytes at byte 0\)"),
+        ("l.xyz", b"1 2 3\n4 5 6\x00\n", r"NUL bytes at byte 11"),
     ],
 )
 def test_bad_cloud_files(tmp_path, name, content, match):

@@ -102,6 +102,11 @@ def _load_text(path: Path) -> np.ndarray:
         text = path.read_text(encoding="utf-8-sig")  # a byte-order mark (Excel's UTF-8 CSV) is not data
     except UnicodeDecodeError as exc:
         raise CloudFileError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from exc
+    if "\x00" in text:  # a binary file: its NUL bytes made one "header" line and no data
+        raise CloudFileError(
+            f"{path}: not a text file (it holds NUL bytes at byte {text.index(chr(0))}); a point cloud is "
+            "CSV, TXT or XYZ text, or .npy"
+        )
     lines = text.splitlines()
     ours = bool(lines) and lines[0].strip() == TEXT_HEADER.strip()  # save_cloud's .txt/.xyz
     numbered = [
@@ -135,9 +140,10 @@ def _load_text(path: Path) -> np.ndarray:
         raise CloudFileError(f"{path}: NaN or infinite coordinates on {bad.size} line(s): {shown_lines}")
     if order is None:
         return data
+    columns = ", ".join(str(k + 1) for k in order[:2]) + f" and {order[2] + 1}"
     warnings.warn(
-        f"{path}: the header {', '.join(first_tokens)} names the columns, so they were read as "
-        f"{', '.join(first_tokens[k] for k in order)} (x, y, z)",
+        f"{path}: the header {', '.join(first_tokens)} names the columns in another order, so x, y "
+        f"and z were read from columns {columns} ({', '.join(first_tokens[k] for k in order)})",
         CloudFileWarning,
         stacklevel=3,
     )
