@@ -2,6 +2,7 @@
 
 import argparse
 import json
+import re
 
 import numpy as np
 import pytest
@@ -239,6 +240,28 @@ def test_an_sph_run_directory_that_is_not_utf8_is_refused(capsys, bucket_csv, tm
     with pytest.raises(InputError, match=match):
         run(capsys, "force", str(bucket_csv), "--solver", "sph", "--run-dir", run_dir)
     assert not (tmp_path / bad / "run").exists() and not (tmp_path / "run").exists()
+
+
+def test_a_temporary_directory_that_is_not_utf8_is_refused_where_simulations_run_in_it(
+    capsys, bucket_csv, tmp_path, monkeypatch
+):
+    # without --run-dir the simulation runs under TMPDIR: a name that is not UTF-8 crashed it too
+    import os
+    import tempfile
+
+    from replication.casestudy import sph
+    from replication.cli import main
+
+    monkeypatch.setattr(sph, "require_engine", lambda: None)
+    monkeypatch.setattr(sph, "sph_force", lambda *a, **k: pytest.fail("the simulation started"))
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / os.fsdecode(b"tmp\xff")))
+    match = (
+        r"the temporary directory \(TMPDIR\) .*tmp\\udcff: the SPH engine needs a path that is valid UTF-8"
+    )
+    with pytest.raises(InputError, match=match):
+        run(capsys, "force", str(bucket_csv), "--solver", "sph")
+    assert main(["sph", "--quick", "--output-dir", str(tmp_path / "out")]) == 1
+    assert re.search(match, capsys.readouterr().err) and not (tmp_path / "out").exists()
 
 
 @pytest.mark.skipif(not engine_available(), reason='the SPH engine is not installed (pip install ".[sph]")')

@@ -89,6 +89,16 @@ SIMULATION_ENTRIES = frozenset(
 )  # fmt: skip
 
 
+def check_temporary_dir_utf8() -> None:
+    """Refuse a temporary directory whose path is not UTF-8 where simulations run in it (no
+    ``--run-dir``): the engine is given paths under it and every simulation crashed."""
+    import tempfile
+
+    from replication.io.paths import check_utf8_path
+
+    check_utf8_path(tempfile.gettempdir(), "the temporary directory (TMPDIR)")
+
+
 def _check_run_dir(run_dir: str) -> None:
     """``--run-dir`` must be new, empty or an earlier simulation's: the simulation replaces
     scene.json, steps.csv, series.csv, result.json, ... there, and deleted a user's files of
@@ -143,6 +153,8 @@ def check_force_options(args: argparse.Namespace) -> None:
             )
     if getattr(args, "run_dir", None):
         _check_run_dir(args.run_dir)
+    elif args.solver == "sph":
+        check_temporary_dir_utf8()
 
 
 @contextlib.contextmanager
@@ -260,6 +272,7 @@ def _cmd_sph(args: argparse.Namespace) -> int:
     from replication.cli.outputs import finish_reports, planned_output_dir
 
     out = planned_output_dir(args)
+    check_temporary_dir_utf8()  # its simulations run in temporary directories
     require_engine()
     start = time.perf_counter()
     path = run_sph_report(out, args.quick, args.invocation)
