@@ -73,7 +73,12 @@ COMMANDS_WRITING_REPORTS = [
 
 @pytest.mark.parametrize(
     ("argv", "name"),
-    [(argv, name) for argv in COMMANDS_WRITING_REPORTS for name in ("data", "figures")]
+    [
+        (argv, name)
+        for argv in COMMANDS_WRITING_REPORTS
+        for name in ("data", "figures")
+        if argv != ["report"] or name != "data"
+    ]
     + [(["table1", "--quick"], "data/table1_meshes"), (["reproduce", "--quick"], "data/table1_meshes")],
 )
 def test_a_file_where_the_reports_subdirectory_goes(capsys, tmp_path, monkeypatch, no_experiment, argv, name):
@@ -91,6 +96,41 @@ def test_a_file_where_the_reports_subdirectory_goes(capsys, tmp_path, monkeypatc
     assert code == 1 and one_line(err, argv[0]), err
     assert f"--output-dir out: out/{name} is a file, not a directory" in err
     assert sorted(tmp_path.rglob("*")) == before
+
+
+def test_a_broken_symbolic_link_as_the_output_directory_is_named_once(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "broken").symlink_to(tmp_path / "nowhere")
+    code, _, err = run(capsys, "table1", "--quick", "--output-dir", "broken")
+    assert (
+        code == 1
+        and err == "replication table1: error: --output-dir broken: broken is a broken symbolic link\n"
+    )
+
+
+def test_report_reads_data_it_cannot_write(capsys, tmp_path):
+    """``report`` only reads data/: a read-only one (a share, another user's) is no reason to
+    refuse, as the writability check of the reports directory briefly did."""
+    import shutil
+    import subprocess
+    from pathlib import Path
+
+    out = tmp_path / "out"
+    data = Path(__file__).resolve().parents[1] / "reports" / "data"
+    (out / "data").mkdir(parents=True)
+    for source in data.glob("sph_*"):  # one report's data (the quickest to draw) is enough
+        shutil.copy(source, out / "data" / source.name)
+    if subprocess.run(["chattr", "+i", str(out / "data")], capture_output=True).returncode != 0:
+        pytest.skip("chattr +i is not available here (it makes a directory read-only even for root)")
+    try:
+        code, _, err = run(capsys, "report", "--output-dir", str(out))
+    finally:
+        subprocess.run(["chattr", "-i", str(out / "data")], check=True)
+    assert code == 0 and err == "", err
+    (tmp_path / "file").mkdir()
+    (tmp_path / "file" / "data").write_text("x")
+    code, _, err = run(capsys, "report", "--output-dir", str(tmp_path / "file"))
+    assert code == 1 and one_line(err, "report") and "no report data under" in err, err
 
 
 @pytest.mark.parametrize(
@@ -504,9 +544,20 @@ def test_system_refusals_are_one_line_without_the_debug_hint(capsys, monkeypatch
     code, _, err = run(capsys, "adt", "--random", "5")
     assert code == 1 and one_line(err, "adt"), err
     assert "error: not enough memory: Unable to allocate 74.5 GiB" in err and "unexpected" not in err
+    assert "--debug" in err  # every MemoryError that reached here so far was a missing input check
     refuse(OSError("no file named"))  # an OSError without a file name: still unexpected
     code, _, err = run(capsys, "adt", "--random", "5")
     assert code == 1 and "unexpected OSError: no file named" in err and "--debug" in err
+    # a file that exists where the code wanted to create one is a bug's symptom, not the system's answer
+    refuse(FileExistsError(errno.EEXIST, "File exists", "out/data"))
+    code, _, err = run(capsys, "adt", "--random", "5")
+    assert code == 1 and "unexpected FileExistsError" in err and "--debug" in err
+    refuse(OSError(errno.EBADF, "Bad file descriptor", 987654))  # a descriptor, not a name: no crash
+    code, _, err = run(capsys, "adt", "--random", "5")
+    assert code == 1 and one_line(err, "adt") and "987654" in err
+    refuse(OSError(errno.EACCES, "Permission denied", 987654))
+    code, _, err = run(capsys, "adt", "--random", "5")
+    assert code == 1 and err == "replication adt: error: 987654: Permission denied\n", err
     for exc in (MemoryError("out"), OSError(errno.ENAMETOOLONG, "File name too long", LONG)):
         refuse(exc)
         with pytest.raises(type(exc)):

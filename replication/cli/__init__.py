@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import importlib
 import os
 import re
@@ -133,19 +134,39 @@ def _one_line(exc: BaseException) -> str:
     return f"unexpected {type(exc).__name__}: {text}"
 
 
+#: Operating-system errors that are the system's answer about a path the user named (a name
+#: too long, no permission, a read-only or full file system, too many open files), not a bug.
+_REFUSALS = frozenset(
+    getattr(errno, name)
+    for name in ("ENAMETOOLONG", "EACCES", "EPERM", "EROFS", "ENOSPC", "EDQUOT", "EMFILE", "ENFILE")
+    if hasattr(errno, name)
+)
+
+
+def _file_name(name: object) -> str:
+    return shortened(os.fsdecode(name) if isinstance(name, (str, bytes, os.PathLike)) else name)
+
+
 def _refused(exc: BaseException) -> str | None:
-    """The message of an error that is no bug but the system's answer: a path it refused (an
-    ``OSError`` naming a file, such as ``File name too long``) or an allocation it refused."""
-    if isinstance(exc, MemoryError):
-        text = " ".join(str(exc).split())
-        return f"not enough memory{f': {text}' if text else ''}"
-    if isinstance(exc, OSError) and exc.filename is not None:
+    """The message of an error that is no bug but the system's answer about a path: an
+    ``OSError`` naming a file with one of the :data:`_REFUSALS` (``File name too long``), or
+    None. Any other exception, a MemoryError included, keeps the ``--debug`` hint: those that
+    reached here so far were missing input checks."""
+    if isinstance(exc, OSError) and exc.filename is not None and exc.errno in _REFUSALS:
         reason = exc.strerror or " ".join(str(exc).split()) or type(exc).__name__
-        names = shortened(os.fsdecode(exc.filename))
+        names = _file_name(exc.filename)
         if exc.filename2 is not None:
-            names += f" -> {shortened(os.fsdecode(exc.filename2))}"
+            names += f" -> {_file_name(exc.filename2)}"
         return f"{names}: {reason}"
     return None
+
+
+def _unexpected(exc: BaseException) -> str:
+    """An exception nobody foresaw, as one line with the hint to run with ``--debug``."""
+    if isinstance(exc, MemoryError):
+        text = " ".join(str(exc).split())
+        return f"not enough memory{f': {text}' if text else ''} (run with --debug for the traceback)"
+    return f"{_one_line(exc)} (run with --debug for the traceback)"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -180,10 +201,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.debug:
             raise
         refused = _refused(exc)
-        if refused is not None:
-            print(f"{name}: error: {refused}", file=sys.stderr)
-        else:
-            print(f"{name}: error: {_one_line(exc)} (run with --debug for the traceback)", file=sys.stderr)
+        print(f"{name}: error: {refused if refused is not None else _unexpected(exc)}", file=sys.stderr)
         return 1
 
 

@@ -176,7 +176,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
         run_dir = Path(args.run_dir) if args.run_dir else _new_run_dir()
         try:
             existing = run_dir.is_dir()
-        except OSError as exc:  # Python 3.11's Path.is_dir() raises on a name too long
+        except OSError as exc:  # Python's Path.is_dir() raises on a name too long
             raise InputError(f"--run-dir {shortened(run_dir)}: {exc.strerror or exc}") from exc
         if existing:
             found = checkpoints(run_dir)

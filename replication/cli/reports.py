@@ -119,12 +119,13 @@ def _cmd_report(args: argparse.Namespace) -> int:
     out = Path(args.output_dir or DEFAULT_DIR)
     try:
         is_dir, exists = out.is_dir(), out.exists()
-    except OSError as exc:  # Python 3.11's Path.is_dir() raises on a name too long
+    except OSError as exc:  # Python's Path.is_dir() raises on a name too long
         raise ReportDataError(f"reports directory {shortened(out)}: {exc.strerror or exc}") from exc
     if not is_dir:
         what = "is a file" if exists else "does not exist"
         raise ReportDataError(f"reports directory {out} {what}: run `replication reproduce` first")
-    check_report_dir(out, "--output-dir" if args.output_dir else "the reports directory")
+    # data/ is only read here (it may be on a read-only share); figures/ is written
+    check_report_dir(out, "--output-dir" if args.output_dir else "the reports directory", ("figures",))
     readme = _check_readme(args.readme, out) if args.readme else None
     written = []
     if args.performance:

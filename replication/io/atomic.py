@@ -38,7 +38,7 @@ def check_output_path(path: str | os.PathLike[str]) -> Path:
         return _check_output_path(Path(path))
     except OutputError:
         raise
-    except OSError as exc:  # Python 3.11's Path.is_symlink()/is_dir() raise on a name too long
+    except OSError as exc:  # Python's Path.is_symlink()/is_dir() raise on a name too long
         raise OutputError(f"cannot write {shortened(path)}: {exc.strerror or exc}") from exc
 
 

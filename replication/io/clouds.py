@@ -254,7 +254,7 @@ def load_cloud(path: str | os.PathLike[str]) -> np.ndarray:
     path = Path(path)
     try:
         exists, is_dir = path.exists(), path.is_dir()
-    except OSError as exc:  # Python 3.11's Path.exists() raises on a name too long
+    except OSError as exc:  # Python's Path.exists() raises on a name too long
         raise CloudFileError(
             f"cannot read the point-cloud file {shortened(path)}: {exc.strerror or exc}"
         ) from exc

@@ -120,7 +120,9 @@ def check_writable_dir(path: str | os.PathLike[str], what: str) -> Path:
     target = Path(path)
     try:
         existing = _nearest_existing(target, what)
-    except OSError as exc:  # Python 3.11's Path.exists() raises on a name too long
+    except OutputError:  # (an OSError itself) already names the option
+        raise
+    except OSError as exc:  # Python's Path.exists() raises on a name too long
         raise OutputError(f"{what} {shortened(target)}: {exc.strerror or exc}") from exc
     if not existing.is_dir():
         where = "is a file" if existing == target else f"cannot be created: {existing} is a file"

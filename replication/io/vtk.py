@@ -242,7 +242,7 @@ def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
     path = Path(path)
     try:
         is_dir, is_file = path.is_dir(), path.is_file()
-    except OSError as exc:  # Python 3.11's Path.is_dir() raises on a name too long
+    except OSError as exc:  # Python's Path.is_dir() raises on a name too long
         raise CloudFileError(
             f"cannot read the surface file {shortened(path)}: {exc.strerror or exc}"
         ) from exc
