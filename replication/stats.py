@@ -320,18 +320,21 @@ def _paired(
     max_abs = float(np.max(np.abs(d)))
     magnitude = float(max(np.max(np.abs(a)), np.max(np.abs(b))))
 
+    rounding = rounding_tolerance(depth_range, magnitude)  # as PairedStatistics.rounding_tolerance
     if sd <= 1e-12 * max(max_abs, np.finfo(float).tiny):
         # constant differences (up to rounding): scipy's tests are undefined or meaningless
         sd = 0.0
-        t_res = TestResult(np.inf if mean else 0.0, 0.0 if mean else 1.0, mean == 0.0)
-        # every signed rank on one side: the exact test's smallest p-value, 2 / 2**n (scipy: 0.25 at n = 3)
-        w_p = min(1.0, 2.0 ** (1 - n)) if mean else 1.0
-        w_res = TestResult(0.0, w_p, bool(w_p >= alpha))
+        if max_abs <= rounding:  # a constant offset at rounding level: no evidence either (rounding_only)
+            t_res = w_res = TestResult(0.0, 1.0, True)
+        else:
+            t_res = TestResult(np.inf if mean else 0.0, 0.0 if mean else 1.0, mean == 0.0)
+            # every signed rank on one side: the exact test's smallest p-value, 2 / 2**n (0.25 at n = 3)
+            w_p = min(1.0, 2.0 ** (1 - n)) if mean else 1.0
+            w_res = TestResult(0.0, w_p, bool(w_p >= alpha))
         normality_name, normality_p = "constant differences", float("nan")
         tost_p = 0.0 if abs(mean) < margin else 1.0
         dz = float("inf") * np.sign(mean) if mean else 0.0
     else:
-        rounding = rounding_tolerance(depth_range, magnitude)  # as PairedStatistics.rounding_tolerance
         if max_abs <= rounding:  # PairedStatistics.rounding_only
             # nothing but rounding noise, whose mean over its spread is set by the units and the
             # offset (a plane: p = 0.54 in mm, 0.012 in m): no evidence, as in the Wilcoxon test

@@ -284,8 +284,9 @@ def test_a_header_naming_the_axes_says_which_column_is_which(tmp_path, header):
         ("i.txt", b"\xff\xfe\x00binary", "not a UTF-8 text file"),
         ("j.npy", b"not numpy", "not a .npy array file"),
         # was "the file has a header but no data lines": the NUL bytes made one header-like line
-        ("k.csv", b"\x00" * 100, r"not a text file \(it holds NUL bytes at byte 0\)"),
-        ("l.xyz", b"1 2 3\n4 5 6\x00\n", r"NUL bytes at byte 11"),
+        ("k.csv", b"\x00" * 100, r"not a UTF-8 text file \(a NUL byte at byte 0: binary data, or UTF-16"),
+        ("l.xyz", "\ufeff# \u00e9\n1 2 3\n4 5 6\x00\n".encode(), r"NUL byte at byte 19"),
+        ("m.csv", "x,y,z\n1,2,3\n".encode("utf-16-le"), r"NUL byte at byte 1: binary data, or UTF-16 text"),
     ],
 )
 def test_bad_cloud_files(tmp_path, name, content, match):
@@ -566,9 +567,12 @@ def test_a_save_that_waits_for_another_says_so_and_then_publishes(tmp_path, caps
     holder = os.open(data, os.O_RDONLY | os.O_DIRECTORY)  # another command, publishing
     fcntl.flock(holder, fcntl.LOCK_EX)
 
+    after = []
+
     def save():
         with say_when_publishing_waits(), store.data_set(data, "e_provenance.json") as staged:
             (staged / "e_provenance.json").write_text("mine\n")
+        after.append(store.PUBLISH_WAIT.get())  # the notice is the command's, only while it saves
 
     thread = threading.Thread(target=save)
     err = ""
@@ -587,7 +591,7 @@ def test_a_save_that_waits_for_another_says_so_and_then_publishes(tmp_path, caps
     assert not published_meanwhile  # it waited
     assert err == f"waiting for another command to finish saving its data into {data} ...\n"
     assert (data / "e_provenance.json").read_text() == "mine\n"
-    assert store.PUBLISH_WAIT.get() is None  # the notice is the command's, only while it saves
+    assert after == [None]
 
 
 def test_a_data_set_without_its_provenance_is_refused(tmp_path):

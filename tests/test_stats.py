@@ -7,6 +7,7 @@ from hypothesis import strategies as hst
 from hypothesis.extra import numpy as st_np
 from scipy import stats
 
+from replication import stats as ours
 from replication.errors import InputError
 from replication.stats import paired_statistics, rounding_tolerance
 
@@ -260,6 +261,18 @@ def test_the_wilcoxon_verdict_does_not_depend_on_units(unit):
     # the exact ties of the decimal data: scipy's test on the differences rounded to 0.1 mm
     exact = stats.wilcoxon(np.round(a - b, 10))
     assert base.wilcoxon.p_value == pytest.approx(exact.pvalue, rel=1e-12)
+
+
+def test_a_constant_offset_at_rounding_level_is_no_evidence_either():
+    # every difference 2**-32 next to depths of 1e6 (about 1 unit in the
+    # last place): rounding_only, yet the constant-differences case said p = 0 and "different"
+    a = np.linspace(0.0, 0.4, 10) + 1e6
+    st = paired_statistics(a, a + 2.0**-32, depth_range=0.4)
+    assert st.rounding_only and st.sd_difference == 0.0
+    assert st.t_test == st.wilcoxon == ours.TestResult(0.0, 1.0, True) and st.paper_verdict == "similar"
+    # a real constant offset is still the tests' certain difference
+    real = paired_statistics(a, a + 0.01, depth_range=0.4)
+    assert not real.rounding_only and real.t_test.p_value == 0.0 and real.paper_verdict == "different"
 
 
 def test_differences_that_are_all_rounding_give_no_wilcoxon_evidence():

@@ -102,10 +102,11 @@ def _load_text(path: Path) -> np.ndarray:
         text = path.read_text(encoding="utf-8-sig")  # a byte-order mark (Excel's UTF-8 CSV) is not data
     except UnicodeDecodeError as exc:
         raise CloudFileError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from exc
-    if "\x00" in text:  # a binary file: its NUL bytes made one "header" line and no data
+    if "\x00" in text:  # binary data: its NUL bytes made one "header" line and no data
+        at = path.read_bytes().index(b"\x00")
         raise CloudFileError(
-            f"{path}: not a text file (it holds NUL bytes at byte {text.index(chr(0))}); a point cloud is "
-            "CSV, TXT or XYZ text, or .npy"
+            f"{path}: not a UTF-8 text file (a NUL byte at byte {at}: binary data, or UTF-16 text); a point "
+            "cloud is CSV, TXT or XYZ text in UTF-8, or .npy"
         )
     lines = text.splitlines()
     ours = bool(lines) and lines[0].strip() == TEXT_HEADER.strip()  # save_cloud's .txt/.xyz
