@@ -136,6 +136,33 @@ def test_a_run_directory_in_use_is_refused_and_left_as_it_is(capsys, tmp_path, m
     assert (run_dir / "run-0.json").is_file()
 
 
+def test_two_commands_started_in_the_same_second_get_run_directories_of_their_own(
+    capsys, tmp_path, monkeypatch
+):
+    """Default run directories were named by the second: two commands started in the same second
+    chose one name before either created it (``reproduce`` creates it only after Table 1, minutes
+    later), and the later one was refused as "in use" or found the other's checkpoints."""
+    import datetime as dt
+    import os
+
+    from replication.cli import casestudy as cli_casestudy
+
+    class SameSecond(dt.datetime):
+        @classmethod
+        def now(cls, tz=None):
+            return cls(2026, 11, 23, 9, 45, 0)
+
+    monkeypatch.setattr(cli_casestudy.dt, "datetime", SameSecond)
+    monkeypatch.chdir(tmp_path)
+    with monkeypatch.context() as other:
+        other.setattr(os, "getpid", os.getppid)  # another process: the first command, still planning
+        first = cli_casestudy._new_run_dir()
+    assert main(["casestudy", *TINY_ARGS]) == 0, capsys.readouterr().err
+    (second,) = (tmp_path / "casestudy-runs").iterdir()
+    assert second.name.startswith("run-20261123-094500-") and (second / "run-0.json").is_file()
+    assert not (tmp_path / first).exists()  # the first command's directory is still its own to create
+
+
 def test_ctrl_c_while_the_report_data_are_saved_keeps_the_previous_data_set(capsys, tmp_path, monkeypatch):
     """A second case study into the same --output-dir, stopped as it wrote its provenance: the
     first run's tables were already replaced, so `report` showed seed 6's runs under seed 5's

@@ -16,6 +16,7 @@ import argparse
 import dataclasses
 import datetime as dt
 import functools
+import os
 import shlex
 import sys
 import time
@@ -105,7 +106,10 @@ def _requested_config(args: argparse.Namespace) -> Any:
 
 
 def _new_run_dir() -> Path:
-    stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    """``casestudy-runs/run-<time>-<process id>``: the process id keeps the names of two commands
+    started in the same second apart (with the time alone, both chose one name and the second
+    was refused by the first's lock)."""
+    stamp = f"{dt.datetime.now().strftime('%Y%m%d-%H%M%S')}-{os.getpid()}"
     run_dir = Path("casestudy-runs") / f"run-{stamp}"
     k = 2
     while run_dir.exists():
@@ -354,7 +358,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--population", type=positive_int, help="individuals per generation (default 48)")
     p.add_argument("--seed", type=seed, help="base seed; run k uses [seed, k] (default 2019)")
     p.add_argument(
-        "--run-dir", metavar="DIR", help="checkpoint directory (default: casestudy-runs/run-<time>)"
+        "--run-dir",
+        metavar="DIR",
+        help="checkpoint directory (default: casestudy-runs/run-<time>-<process id>)",
     )
     p.add_argument(
         "--resume",
