@@ -379,6 +379,34 @@ def test_a_random_cloud_that_cannot_fit_in_memory_is_refused_before_it_is_drawn(
     assert "the cloud was drawn before the memory check" in err, err
 
 
+@pytest.mark.parametrize("version", ["v1", "v2"])
+def test_a_containers_memory_limit_counts_as_what_is_available(tmp_path, monkeypatch, version):
+    # MemAvailable is the machine's: inside a container with a lower limit a command the
+    # machine could hold was killed by the container's limit, after the check had passed
+    from replication.cli import resources
+
+    if version == "v2":
+        membership, group = "0::/job/7\n", tmp_path / "job" / "7"
+        files = {"memory.max": "1073741824\n", "memory.current": "268435456\n"}
+    else:
+        membership, group = "5:cpu:/\n4:memory:/job/7\n", tmp_path / "memory" / "job" / "7"
+        files = {"memory.limit_in_bytes": "1073741824\n", "memory.usage_in_bytes": "268435456\n"}
+    group.mkdir(parents=True)
+    for name, text in files.items():
+        (group / name).write_text(text)
+    (tmp_path / "cgroup").write_text(membership)
+    assert resources.cgroup_headroom(tmp_path, tmp_path / "cgroup") == 3 * 2**28  # 1 GiB less 256 MiB
+    # no limit ("max", or v1's huge number), or no readable group: no headroom of its own
+    (group / next(iter(files))).write_text("max\n" if version == "v2" else f"{2**63 - 4096}\n")
+    assert resources.cgroup_headroom(tmp_path, tmp_path / "cgroup") is None
+    assert resources.cgroup_headroom(tmp_path, tmp_path / "missing") is None
+    monkeypatch.setattr(resources, "cgroup_headroom", lambda: 2**28)
+    monkeypatch.setattr(resources, "_mem_available", lambda: 2**34)
+    assert resources.available_memory() == 2**28  # the smaller of the two
+    monkeypatch.setattr(resources, "cgroup_headroom", lambda: None)
+    assert resources.available_memory() == 2**34
+
+
 def test_margin_and_alpha_must_be_finite(capsys):
     for option, value in (("--margin", "inf"), ("--margin", "nan"), ("--margin", "-0.1"), ("--alpha", "1.5")):
         with pytest.raises(SystemExit) as exc:

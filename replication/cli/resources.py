@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import os
+
 __all__ = [
     "BYTES_PER_COMPARE_SAMPLE",
     "BYTES_PER_POINT",
     "BYTES_PER_SAMPLE",
     "BYTES_PER_WRITTEN_POINT",
     "available_memory",
+    "cgroup_headroom",
     "check_compare_samples",
     "check_random_cloud",
     "check_tessellation",
@@ -34,7 +37,16 @@ BYTES_PER_WRITTEN_POINT = 800
 
 
 def available_memory() -> int | None:
-    """Bytes of memory available to a new allocation (Linux MemAvailable), or None if unknown."""
+    """Bytes of memory available to a new allocation, or None if unknown: Linux MemAvailable,
+    or less where the process's memory cgroup (a container's limit) allows less."""
+    free = _mem_available()
+    headroom = cgroup_headroom()
+    if free is None or headroom is None:
+        return free if headroom is None else headroom
+    return min(free, headroom)
+
+
+def _mem_available() -> int | None:
     try:
         with open("/proc/meminfo", encoding="ascii") as handle:
             for line in handle:
@@ -43,11 +55,54 @@ def available_memory() -> int | None:
     except (OSError, ValueError, IndexError):
         pass
     try:
-        import os
-
         return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
     except (AttributeError, ValueError, OSError):
         return None
+
+
+#: cgroup v1 reports "no limit" as a huge number (the largest page-aligned 64-bit value).
+_NO_LIMIT = 2**60
+
+
+def cgroup_headroom(
+    root: str | os.PathLike[str] = "/sys/fs/cgroup", membership: str | os.PathLike[str] = "/proc/self/cgroup"
+) -> int | None:
+    """Bytes the process's memory cgroup still allows (its limit less its usage), or None.
+
+    A container's memory limit is not in MemAvailable, which is the whole machine's: a
+    command the machine could hold was killed by the container's limit without a word. Reads
+    cgroup v2 (``memory.max``, ``memory.current``) or v1 (``memory.limit_in_bytes``,
+    ``memory.usage_in_bytes``) of the process's own group; the limits of enclosing groups
+    are not read. None when there is no limit or it cannot be read.
+    """
+    from pathlib import Path
+
+    try:
+        lines = Path(membership).read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError):
+        return None
+    for line in lines:
+        parts = line.split(":", 2)
+        if len(parts) != 3:
+            continue
+        hierarchy, controllers, group = parts
+        if hierarchy == "0" and controllers == "":  # cgroup v2: one unified hierarchy
+            here = Path(root) / group.lstrip("/")
+            limit_file, usage_file = here / "memory.max", here / "memory.current"
+        elif "memory" in controllers.split(","):  # cgroup v1: the memory controller's own
+            here = Path(root) / "memory" / group.lstrip("/")
+            limit_file, usage_file = here / "memory.limit_in_bytes", here / "memory.usage_in_bytes"
+        else:
+            continue
+        try:
+            limit_text = limit_file.read_text(encoding="ascii").strip()
+            usage = int(usage_file.read_text(encoding="ascii").strip())
+            limit = _NO_LIMIT if limit_text == "max" else int(limit_text)
+        except (OSError, ValueError, UnicodeDecodeError):
+            continue
+        if limit < _NO_LIMIT:
+            return max(limit - usage, 0)
+    return None
 
 
 def _size(n: float) -> str:
