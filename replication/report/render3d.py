@@ -31,13 +31,17 @@ def _load_pyvista() -> Any:
 
     A KeyboardInterrupt raised in the middle of VTK's module initialisation left it half
     built, and the interpreter then crashed (a segmentation fault, 3 of 40 Ctrl-Cs at that
-    moment) instead of reporting the interrupt.
+    moment) instead of reporting the interrupt. ``pyvista.plotting``, which pyvista loads
+    lazily on the first ``pv.Plotter`` and which pulls in most of VTK, is loaded here too: a
+    Ctrl-C during that later import crashed the same way or was swallowed (2-3 of 60).
     """
     from replication.report.store import interrupt_deferred
 
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     with interrupt_deferred():
-        return importlib.import_module("pyvista")
+        pv = importlib.import_module("pyvista")
+        importlib.import_module("pyvista.plotting")
+        return pv
 
 
 def _pyvista_views(views: dict[Path, Sequence[tuple[str, Mesh]]], size: tuple[int, int]) -> None:
