@@ -258,7 +258,7 @@ def test_sweep_failure_falls_back_to_qhull(monkeypatch):
     def failing(points, axes):
         return _triangulate._failed(np.int32, _sweephull.STATUS_SKIPPED, 1)
 
-    monkeypatch.setattr(_triangulate, "triangulate", failing)
+    monkeypatch.setattr(delaunay, "triangulate", failing)
     uv = np.random.default_rng(0).random((30, 2))
     triangles, used = delaunay_2d(uv)
     assert used == "scipy"

@@ -32,6 +32,8 @@ from typing import Literal
 import numpy as np
 
 from replication.errors import DegenerateInputError, InputError, shown
+from replication.surfaces._status import STATUS_COLLINEAR, STATUS_OK, STATUS_RANGE
+from replication.surfaces._triangulate import triangulate
 
 __all__ = ["BACKENDS", "Backend", "delaunay_2d", "hull_from_neighbors", "planar_delaunay", "signed_areas"]
 
@@ -204,9 +206,6 @@ def planar_delaunay(points: np.ndarray, axes: tuple[int, int] = (0, 1), *, backe
     if backend not in BACKENDS:
         raise InputError(f"unknown triangulation backend {backend!r}; choose one of {BACKENDS}")
     if backend != "scipy":
-        from replication.surfaces._status import STATUS_COLLINEAR, STATUS_OK, STATUS_RANGE
-        from replication.surfaces._triangulate import triangulate
-
         result = triangulate(points, axes)
         if result.status == STATUS_RANGE:  # scaled exactly: the indices and triangles are the cloud's
             points, axes = _in_range(points, axes)
