@@ -164,3 +164,18 @@ def test_unwritable_file_system_is_refused():
         OutputError, match="/sys/kernel/replication-out is not writable .*would be created in"
     ):
         check_writable_dir("/sys/kernel/replication-out", "--output-dir")
+
+
+def test_lookup_tells_absent_file_and_directory_and_names_a_refused_path(tmp_path):
+    from replication.errors import InputError
+    from replication.io.paths import lookup
+
+    (tmp_path / "f").write_text("x")
+    cases = [("missing", (False, False, False)), ("f", (True, False, True)), (".", (True, True, False))]
+    for name, expected in cases:
+        found = lookup(tmp_path / name, InputError, "--x")
+        assert (found.exists, found.is_dir, found.is_file) == expected, name
+    assert not lookup(tmp_path / "f" / "below", InputError, "--x").exists  # a file as a directory
+    assert not lookup("a\0b", InputError, "--x").exists  # as Path.exists() answers
+    with pytest.raises(InputError, match=r"^--x /.*\.\.\.a+: File name too long$"):
+        lookup(tmp_path / ("a" * 300), InputError, "--x")

@@ -165,8 +165,8 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     from replication.casestudy.checkpoints import load_run
     from replication.casestudy.evaluate import check_executor_options
     from replication.casestudy.rundir import checkpoints, read_config
-    from replication.errors import InputError, shortened
-    from replication.io.paths import check_report_dir, check_writable_dir
+    from replication.errors import InputError
+    from replication.io.paths import check_report_dir, check_writable_dir, lookup
 
     check_executor_options(args.executor, args.workers, args.scheduler)
     rescore = rescore_config(args, _requested_config(args))
@@ -178,11 +178,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     else:
         config = _requested_config(args)
         run_dir = Path(args.run_dir) if args.run_dir else _new_run_dir()
-        try:
-            existing = run_dir.is_dir()
-        except OSError as exc:  # Python's Path.is_dir() raises on a name too long
-            raise InputError(f"--run-dir {shortened(run_dir)}: {exc.strerror or exc}") from exc
-        if existing:
+        if lookup(run_dir, InputError, "--run-dir").is_dir:
             found = checkpoints(run_dir)
             if found:
                 raise InputError(

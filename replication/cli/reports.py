@@ -110,19 +110,16 @@ def _check_readme(readme: str, out: Path) -> Path:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from replication.errors import ReportDataError, shortened
-    from replication.io.paths import check_report_dir, same_file
+    from replication.errors import ReportDataError
+    from replication.io.paths import check_report_dir, lookup, same_file
     from replication.report.casestudy import render_casestudy
     from replication.report.index import update_readme
     from replication.report.table1 import render_table1
 
     out = Path(args.output_dir or DEFAULT_DIR)
-    try:
-        is_dir, exists = out.is_dir(), out.exists()
-    except OSError as exc:  # Python's Path.is_dir() raises on a name too long
-        raise ReportDataError(f"reports directory {shortened(out)}: {exc.strerror or exc}") from exc
-    if not is_dir:
-        what = "is a file" if exists else "does not exist"
+    found = lookup(out, ReportDataError, "reports directory")
+    if not found.is_dir:
+        what = "is a file" if found.exists else "does not exist"
         raise ReportDataError(f"reports directory {out} {what}: run `replication reproduce` first")
     # data/ is only read here (it may be on a read-only share); figures/ is written
     check_report_dir(out, "--output-dir" if args.output_dir else "the reports directory", ("figures",))

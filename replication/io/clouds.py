@@ -20,8 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from replication.errors import CloudFileError, CloudFileWarning, InputError, shortened, shown
+from replication.errors import CloudFileError, CloudFileWarning, InputError, shown
 from replication.io.atomic import atomic_path, atomic_write_text
+from replication.io.paths import lookup
 from replication.io.vtk import shortest_decimals
 from replication.surfaces.cloud import as_cloud
 
@@ -253,15 +254,10 @@ def load_cloud(path: str | os.PathLike[str]) -> np.ndarray:
     if not os.fspath(path):
         raise CloudFileError("no point-cloud file named: the file name is empty")
     path = Path(path)
-    try:
-        exists, is_dir = path.exists(), path.is_dir()
-    except OSError as exc:  # Python's Path.exists() raises on a name too long
-        raise CloudFileError(
-            f"cannot read the point-cloud file {shortened(path)}: {exc.strerror or exc}"
-        ) from exc
-    if not exists:
+    found = lookup(path, CloudFileError, "cannot read the point-cloud file")
+    if not found.exists:
         raise CloudFileError(f"point-cloud file not found: {path}")
-    if is_dir:
+    if found.is_dir:
         raise CloudFileError(f"expected a point-cloud file, got a directory: {path}")
     suffix = path.suffix.lower()
     if suffix in _TEXT_SUFFIXES:

@@ -10,9 +10,11 @@ permission bits say nothing about a read-only file system and are ignored for ro
 
 from __future__ import annotations
 
+import errno
 import os
+import stat
 import tempfile
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from replication.errors import InputError, OutputError, shortened
@@ -23,6 +25,7 @@ __all__ = [
     "check_report_dir",
     "check_utf8_path",
     "check_writable_dir",
+    "lookup",
     "same_file",
 ]
 
@@ -30,6 +33,39 @@ __all__ = [
 REPORT_SUBDIRS = ("data", "figures")
 
 Named = tuple[str, str | os.PathLike[str]]
+
+
+#: What ``Path.exists()`` answers False for (no such entry, a file as a directory, a link loop).
+_ABSENT = frozenset({errno.ENOENT, errno.ENOTDIR, errno.EBADF, errno.ELOOP})
+
+
+class Found:
+    """What :func:`lookup` found at a path: ``exists``, ``is_dir``, ``is_file`` (links followed)."""
+
+    __slots__ = ("exists", "is_dir", "is_file")
+
+    def __init__(self, mode: int | None) -> None:
+        self.exists = mode is not None
+        self.is_dir = mode is not None and stat.S_ISDIR(mode)
+        self.is_file = mode is not None and stat.S_ISREG(mode)
+
+
+def lookup(path: str | os.PathLike[str], error: Callable[[str], Exception], what: str) -> Found:
+    """Whether ``path`` exists and is a directory or a regular file, with one ``stat``.
+
+    ``Path.exists()`` and ``Path.is_dir()`` raise where the system refuses the lookup itself
+    (Python 3.11: a name too long, a directory that may not be searched); that becomes
+    ``error(f"{what} {path}: {reason}")``, the path shortened, so that the command says in
+    one line which of its paths was refused.
+    """
+    try:
+        return Found(os.stat(path).st_mode)
+    except ValueError:  # a NUL byte, or a name the file system's encoding cannot take
+        return Found(None)
+    except OSError as exc:
+        if exc.errno in _ABSENT:
+            return Found(None)
+        raise error(f"{what} {shortened(path)}: {exc.strerror or exc}") from exc
 
 
 def _identity(path: Path) -> tuple[int, int] | None:

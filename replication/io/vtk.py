@@ -19,8 +19,9 @@ from typing import Literal, Protocol
 
 import numpy as np
 
-from replication.errors import CloudFileError, InputError, OutputError, shortened
+from replication.errors import CloudFileError, InputError, OutputError
 from replication.io.atomic import atomic_path, atomic_write_text
+from replication.io.paths import lookup
 
 __all__ = [
     "SURFACE_FORMATS",
@@ -240,15 +241,10 @@ def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
     if not os.fspath(path):
         raise CloudFileError("no surface file named: the file name is empty")
     path = Path(path)
-    try:
-        is_dir, is_file = path.is_dir(), path.is_file()
-    except OSError as exc:  # Python's Path.is_dir() raises on a name too long
-        raise CloudFileError(
-            f"cannot read the surface file {shortened(path)}: {exc.strerror or exc}"
-        ) from exc
-    if is_dir:
+    found = lookup(path, CloudFileError, "cannot read the surface file")
+    if found.is_dir:
         raise CloudFileError(f"expected a surface file, got a directory: {path}")
-    if not is_file:
+    if not found.is_file:
         raise CloudFileError(f"surface file not found: {path}")
     reader = vtkPolyDataReader() if surface_format(path) == "vtk" else vtkXMLPolyDataReader()
     with contextlib.ExitStack() as stack:
