@@ -48,3 +48,18 @@ def fake_sph(points, triangles, config, settings, *, timeout, run_dir):
         CALLS.append(f"{top:g}")
         RUNNING[0] -= 1
     return result
+
+
+def fake_study_score(surface, jet, settings, *, timeout):
+    """A stand-in for ``surface_sph_force`` (the SPH study's score): a force that is a known
+    function of the surface and the particle radius, with a wall time that is not."""
+    time.sleep(0.01)
+    axial = 1.0 + float(np.mean(surface.points[:, 2])) + 1e3 * settings.particle_radius
+    return SPHForce(
+        status="ok", reason=None, key=f"{axial:.6f}", settings=settings,
+        jet=jet, mirrored=True, time=np.arange(3) * 1e-3, force=np.full((3, 3), -axial),
+        mean_force=np.array([0.0, 0.0, -axial]), window=(0.001, 0.002),
+        std_axial=0.1, peak_axial=2 * axial, peak_time=0.0, max_axial=2 * axial, max_step_axial=2 * axial,
+        mass_flow=jet.mass_flow, fluid_particles=10, boundary_particles=20, simulated_time=0.016, steps=3,
+        wall_seconds=0.02, engine="test", run_dir="",
+    )  # fmt: skip

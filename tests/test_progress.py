@@ -66,7 +66,7 @@ def test_the_sph_stage_writes_plain_lines_into_a_log(monkeypatch, tmp_path, caps
     import replication.experiments.sph as experiment
     import replication.report.sph as report
 
-    def fake_study(config, *, command, quick, on_run):
+    def fake_study(config, *, command, quick, on_run, **executor):
         for k in range(len(config.runs())):
             on_run(f"run {k}")
         return "results"

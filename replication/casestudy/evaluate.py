@@ -182,6 +182,7 @@ def executor(
     workers: int | None = None,
     scheduler: str | None = None,
     on_interrupt: Callable[[], None] | None = None,
+    abandon_on_interrupt: bool = False,
 ) -> Iterator[cf.Executor]:
     """An executor for fitness evaluations, closed on exit.
 
@@ -199,6 +200,10 @@ def executor(
         Called when Ctrl-C leaves the block of a process pool or a local dask cluster, before
         it waits for the work under way (an SPH simulation can take minutes): the place to
         say so.
+    abandon_on_interrupt : bool
+        A process pool does not wait on Ctrl-C: its workers are ended at once, each killing
+        the simulation it ran (for work that keeps nothing of an unfinished run, such as the
+        SPH study; ``on_interrupt`` is then not called).
 
     Raises
     ------
@@ -232,14 +237,18 @@ def executor(
                 initializer=worker_initializer,
                 initargs=(os.getpid(),),
             )
-            interrupted = False
+            interrupted = abandoned = False
             try:
                 yield pool
             except KeyboardInterrupt:
                 interrupted = True
+                if abandon_on_interrupt:
+                    abandoned = True
+                    _abandon(pool)  # the workers end, and with them the pool's manager thread
                 raise
             finally:
-                _shut_down(pool, on_interrupt if interrupted else None)
+                if not abandoned:
+                    _shut_down(pool, on_interrupt if interrupted else None)
                 del pool
     else:
         from replication.casestudy.cluster import dask_executor

@@ -196,7 +196,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
             if not engine_available():
                 print(f"  [skipped] {name}: the SPH solver is not installed ({INSTALL_HINT})")
                 continue
-            path = run_sph_report(out, args.quick, args.invocation)
+            path = run_sph_report(out, args.quick, args.invocation, args.workers)
         elif name == "jet validation":  # issue 11: hours of SPH, so only from a filled cache
             from replication.cli.validate_run import reproduce_stage
 
@@ -246,7 +246,12 @@ def register(sub: argparse._SubParsersAction) -> None:
             metavar="N",
             help="worker processes for the untimed work (Table 1's paired statistics, storage sizes and "
             "scale-sweep file sizes"
-            + ("; the case study's fitness evaluations" if name == "reproduce" else "")
+            + (
+                "; the case study's fitness evaluations; the SPH study's simulations at a time, default 2 "
+                "there"
+                if name == "reproduce"
+                else ""
+            )
             + "); Table 1's timings run alone, in the command's own process, and no result depends "
             "on N (default: the number of CPUs)",
         )

@@ -10,7 +10,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from replication.cli.common import emit_json, say_when_publishing_waits
+from replication.cli.common import emit_json, positive_int, say_when_publishing_waits
 
 SOLVERS = ("sheet", "sph")
 #: The SPH options of ``replication force`` (dest names); they need --solver sph.
@@ -275,7 +275,7 @@ def _cmd_sph(args: argparse.Namespace) -> int:
     check_temporary_dir_utf8()  # its simulations run in temporary directories
     require_engine()
     start = time.perf_counter()
-    path = run_sph_report(out, args.quick, args.invocation)
+    path = run_sph_report(out, args.quick, args.invocation, args.workers)
     written = finish_reports(out)
     print(f"wrote {path} ({time.perf_counter() - start:.1f} s; data in {out / 'data'})")
     for readme in written[1:]:
@@ -283,19 +283,32 @@ def _cmd_sph(args: argparse.Namespace) -> int:
     return 0
 
 
-def run_sph_report(out: Path, quick: bool, command: str) -> Path:
-    """Run the SPH study (quick or full) into ``out`` and render ``sph.md``."""
+def run_sph_report(out: Path, quick: bool, command: str, workers: int | None = None) -> Path:
+    """Run the SPH study (quick or full) into ``out`` and render ``sph.md``.
+
+    ``workers`` simulations run at once (default: 2, or 1 on a single CPU), each driven from a
+    worker process of its own; 1 runs them one after another in this process. Ctrl-C ends
+    the simulations under way at once: the study keeps nothing of an unfinished run.
+    """
+    import os
+
+    from replication.casestudy.evaluate import executor
     from replication.cli.progress import progress
     from replication.experiments.sph import SPHStudyConfig, run_sph_study
     from replication.report.sph import render_sph, save_sph_data
 
     config = SPHStudyConfig.quick() if quick else SPHStudyConfig()
+    at_once = min(workers or min(2, os.cpu_count() or 1), len(config.runs()))
     with progress(len(config.runs()), "SPH simulations") as bar:
 
         def tick(label: str) -> None:
             bar.update(1, last=label)
 
-        results = run_sph_study(config, command=command, quick=quick, on_run=tick)
+        kind = "serial" if at_once == 1 else "process"
+        with executor(kind, workers=None if kind == "serial" else at_once, abandon_on_interrupt=True) as pool:
+            results = run_sph_study(
+                config, command=command, quick=quick, on_run=tick, executor=pool, max_parallel=at_once
+            )
     with say_when_publishing_waits():
         save_sph_data(results, out)
     return render_sph(out)
@@ -321,5 +334,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--output-dir",
         metavar="DIR",
         help=f"where the report, figures and data go (default {DEFAULT_DIR}/, or {QUICK_DIR}/ with --quick)",
+    )
+    p.add_argument(
+        "--workers",
+        type=positive_int,
+        metavar="N",
+        help="simulations at a time, each on a core of its own (default 2, or 1 on a single CPU; 1 runs "
+        "them one after another in this process); no result depends on it",
     )
     p.set_defaults(func=_cmd_sph)

@@ -11,6 +11,7 @@ to :mod:`replication.experiments.sph_claims`, which sets each reading of the pap
 
 from __future__ import annotations
 
+import concurrent.futures as cf
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -177,8 +178,10 @@ def run_sph_study(
     quick: bool = False,
     on_run: Callable[[str], None] | None = None,
     score: Callable[..., Any] | None = None,
+    executor: cf.Executor | None = None,
+    max_parallel: int = 1,
 ) -> SPHStudyResults:
-    """Run every simulation of the study (serially: each already uses a core) and tabulate.
+    """Run every simulation of the study and tabulate.
 
     Parameters
     ----------
@@ -190,24 +193,54 @@ def run_sph_study(
     on_run : callable, optional
         Called with a run's label when it has finished (progress display).
     score : callable, optional
-        Replaces :func:`~replication.casestudy.sph.surface_sph_force` (same signature).
+        Replaces :func:`~replication.casestudy.sph.surface_sph_force` (same signature; with a
+        process pool, a module-level function).
+    executor : concurrent.futures.Executor, optional
+        Where the simulations are driven from (a process pool, see
+        :func:`replication.casestudy.evaluate.executor`); default: one after another here.
+    max_parallel : int
+        Simulations at once. Each uses one core (one engine thread, so its result does not
+        depend on what runs beside it); the finest particles go first, so that the longest
+        simulations do not come last.
 
     Notes
     -----
     Paper section 6: the forces 21.96 N (flat) and 19.08 N (bucket) from DualSPHysics.
     """
+    from replication.casestudy.evaluate import SerialExecutor
     from replication.casestudy.sph import SPHSettings, engine_version, surface_sph_force
 
+    if isinstance(max_parallel, bool) or not isinstance(max_parallel, int) or max_parallel < 1:
+        raise InputError(f"max_parallel must be a positive integer, got {max_parallel!r}")
     score = score or surface_sph_force
+    pool = executor if executor is not None else SerialExecutor()
     started = time.perf_counter()
+    plan = config.runs()
+    waiting = sorted(range(len(plan)), key=lambda k: plan[k].radius)  # finest (longest) first
+    results: dict[int, Any] = {}
+    running: dict[cf.Future, int] = {}
+    try:
+        while waiting or running:
+            while waiting and len(running) < max_parallel:
+                k = waiting.pop(0)
+                settings = plan[k].settings(config.duration, config.jet.velocity)
+                future = pool.submit(
+                    score, SHAPES[plan[k].shape](), config.jet, settings, timeout=config.timeout
+                )
+                running[future] = k
+            finished, _ = cf.wait(running, return_when=cf.FIRST_COMPLETED)
+            for future in sorted(finished, key=running.__getitem__):
+                k = running.pop(future)
+                results[k] = future.result()
+                if on_run is not None:
+                    on_run(plan[k].label)
+    except BaseException:
+        for future in running:  # not started yet: never started; under way: the executor decides
+            future.cancel()
+        raise
     rows, series = [], []
-    for run in config.runs():
-        result = score(
-            SHAPES[run.shape](),
-            config.jet,
-            run.settings(config.duration, config.jet.velocity),
-            timeout=config.timeout,
-        )
+    for k, run in enumerate(plan):
+        result = results[k]
         rows.append(_row(run, result, config.jet))
         for t, (fx, fy, fz) in zip(result.time, result.force):
             series.append(
@@ -224,8 +257,6 @@ def run_sph_study(
                     "axial_N": -fz,
                 }
             )
-        if on_run is not None:
-            on_run(run.label)
     runs = pd.DataFrame(rows)
     from replication.experiments.sph_claims import hypotheses
 
@@ -240,6 +271,7 @@ def run_sph_study(
         seeds="none (deterministic: one engine thread)",
         run_seconds=time.perf_counter() - started,
         simulation_seconds=float(runs["wall_s"].sum()),
+        simulations_at_once=max_parallel,
     )
     return SPHStudyResults(
         config=config,

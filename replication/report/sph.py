@@ -177,6 +177,8 @@ def render_sph(out_dir: str | os.PathLike[str]) -> Path:
         else ""
     )
     duration = 1e3 * config["duration"]
+    at_once = int(prov.get("simulations_at_once", 1))  # data saved before it was recorded: one at a time
+    beside = "one at a time" if at_once == 1 else f"{at_once} at a time, each on its own core"
     base = prov["sph_settings"]
     failure_section = f"\n## Failed simulations\n{failures}\n\n" if failures else "\n"
     text = f"""# The case study on a real SPH solver (SPlisHSPlasH)
@@ -316,8 +318,8 @@ the paper's values and the flat plate takes more than the bucket, as in the pape
 
 ## Cost of a simulation
 
-Wall time of one simulation of {duration:g} ms (median over the shapes; one engine thread; measured
-on a shared 2-core machine while other work ran, so these times are noisy):
+Wall time of one simulation of {duration:g} ms (median over the shapes; one engine thread; simulations
+{beside}; measured on a shared 2-core machine while other work ran, so these times are noisy):
 
 {
         table(

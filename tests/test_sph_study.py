@@ -1,0 +1,69 @@
+"""The SPH study's simulations run several at once, with results independent of how many."""
+
+import os
+import subprocess
+import sys
+import time
+
+import pandas as pd
+import pytest
+
+from replication.casestudy.evaluate import executor
+from replication.errors import InputError
+from replication.experiments.sph import SPHStudyConfig, run_sph_study
+from sph_fake import fake_study_score
+
+CONFIG = SPHStudyConfig(radii=(1.25e-3, 1.0e-3), wcsph=((1.25e-3, 10.0),), duration=0.014)
+
+
+def test_a_study_on_two_worker_processes_equals_one_run_one_after_another():
+    serial = run_sph_study(CONFIG, score=fake_study_score)
+    seen: list[str] = []
+    with executor("process", workers=2) as pool:
+        parallel = run_sph_study(
+            CONFIG, score=fake_study_score, executor=pool, max_parallel=2, on_run=seen.append
+        )
+    labels = [run.label for run in CONFIG.runs()]
+    assert sorted(seen) == sorted(labels) and len(seen) == len(labels)  # every run reported once
+    # rows in the study's order, whatever order the simulations finished in
+    assert list(parallel.runs["radius_mm"]) == [1e3 * run.radius for run in CONFIG.runs()]
+    for name in ("runs", "series", "shapes", "hypotheses"):
+        pd.testing.assert_frame_equal(getattr(serial, name), getattr(parallel, name))
+    assert serial.provenance["simulations_at_once"] == 1 and parallel.provenance["simulations_at_once"] == 2
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, True])
+def test_max_parallel_must_be_a_positive_integer(bad):
+    with pytest.raises(InputError, match="max_parallel must be a positive integer"):
+        run_sph_study(CONFIG, score=fake_study_score, max_parallel=bad)
+
+
+_CTRL_C_ABANDONS = """
+import sys, time
+from replication.casestudy.evaluate import executor
+
+try:
+    with executor("process", workers=2, abandon_on_interrupt=True) as pool:
+        futures = [pool.submit(time.sleep, 600) for _ in range(2)]
+        while not all(f.running() for f in futures):
+            time.sleep(0.01)
+        print(*[p.pid for p in pool._processes.values()], flush=True)
+        time.sleep(0.5)
+        raise KeyboardInterrupt
+except KeyboardInterrupt:
+    sys.exit(130)
+"""
+
+
+def test_ctrl_c_ends_an_abandoning_pool_at_once_and_leaves_no_worker():
+    """The SPH study keeps nothing of an unfinished simulation: Ctrl-C does not wait for them."""
+    started = time.monotonic()
+    done = subprocess.run(
+        [sys.executable, "-c", _CTRL_C_ABANDONS], capture_output=True, text=True, timeout=300
+    )
+    assert time.monotonic() - started < 120  # not the 600 s of the tasks
+    assert done.returncode == 130, done.stderr
+    assert done.stderr == ""  # no traceback, no warning from the pool's leftovers
+    for pid in map(int, done.stdout.split()):
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)  # ended (and reaped by the parent before it exited)
