@@ -11,6 +11,7 @@ import contextlib
 import functools
 import json
 import os
+import shlex
 import signal
 import subprocess
 import sys
@@ -89,7 +90,7 @@ def _check_stopped(process, presser, run_dir, timeout=180):
     with pytest.raises(ProcessLookupError):  # no worker, cluster or resource tracker is left behind
         os.killpg(process.pid, 0)
     assert "Traceback" not in err and err.rstrip().endswith("replication casestudy: interrupted"), err
-    hint = f"resume with: replication casestudy --run-dir {run_dir} --resume"
+    hint = f"resume with: replication casestudy --run-dir {shlex.quote(str(run_dir))} --resume"  # as printed
     assert hint in err, err
     state = _state(run_dir)
     assert 1 <= state["generation"] < CONFIG.generations
