@@ -460,7 +460,8 @@ def test_npy_cut_short_or_not_coordinates_is_one_line(capsys, tmp_path):
         ("date.npy", "got dates and times (dtype datetime64[s])"),
     ):
         code, _, err = run(capsys, "adt", tmp_path / name)
-        assert code == 1 and one_line(err, "adt") and match in err and "unexpected" not in err, err
+        words = err.replace(str(tmp_path), "TMP")  # the echoed path is the machine's, not the message
+        assert code == 1 and one_line(err, "adt") and match in err and "unexpected" not in words, err
 
 
 def test_underflowing_coordinates_are_named(capsys, tmp_path):
