@@ -109,7 +109,7 @@ def _triangulation() -> None:
     """The sweep-hull triangulator and the NURBS gridding."""
     import numpy as np
 
-    from replication.surfaces import _grid, _raster, _triangulate, adt, random_cloud
+    from replication.surfaces import _grid, _partition, _raster, _triangulate, adt, random_cloud
     from replication.surfaces._threads import frozen
     from replication.surfaces.nurbs import fit_nurbs
 
@@ -121,6 +121,7 @@ def _triangulation() -> None:
         adt(points, backend="scipy")  # the hash grouping
         for levels in (0, 1):  # one block (general path), and blocks with merges and partition
             _triangulate._triangulate(frozen(points, np.float64), (0, 1), levels)
+        _partition.magnitude(frozen(points, np.float64), (0, 1))  # the range check of clouds above SMALL
     owners = tuple(np.full((2, 2), -1, dtype=np.int32) for _ in range(_grid._RUNS))
     _raster._combine(owners, tuple(np.zeros((2, 2)) for _ in range(_grid._RUNS)), 0, 2)
     fit_nurbs(cloud, evaluator="fast", triangulation=surface, tessellation=(4, 4))
