@@ -354,6 +354,31 @@ def test_malformed_first_line_is_an_error_not_a_header(tmp_path):
         load_cloud(tmp_path / "c.csv")
 
 
+@pytest.mark.parametrize(
+    ("name", "text"),
+    [
+        ("a.xyz", "0 1.5 -2 # first point, in mm\n3 4.25 5\n0.1 1e-05 7\n"),
+        ("b.txt", "0 1.5 -2\n3 4.25 5 # a, b\n0.1 1e-05 7\n"),
+        ("c.csv", "x,y,z # mm, mm, mm\n0,1.5,-2 # a, b\n3,4.25,5\n0.1,1e-05,7\n"),
+        ("d.csv", "z,x,y # axes, in another order\n-2,0,1.5\n5,3,4.25\n7,0.1,1e-05\n"),
+        ("e.csv", "0,1,2 # a point, not pandas' header\n0,1.5,-2\n3,4.25,5\n0.1,1e-05,7\n"),
+    ],
+)
+def test_a_comment_at_the_end_of_a_line_is_not_data(tmp_path, name, text):
+    # was: "0 1.5 -2 # first point, in mm" split at its comma had no number, was taken for a
+    # header and the point dropped without a word (a.xyz); the comment's comma gave d.csv's header
+    # four names, so it no longer named the axes and z was read as x, without a word either
+    import warnings
+
+    from replication.errors import CloudFileWarning
+
+    (tmp_path / name).write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CloudFileWarning)  # d.csv's reordering header says so
+        cloud = load_cloud(tmp_path / name)
+    np.testing.assert_array_equal(cloud, [[0, 1, 2], *CLOUD] if name == "e.csv" else CLOUD)
+
+
 @pytest.mark.skipif(
     not Path("/proc/self").is_dir(), reason="needs /proc (an unwritable directory even for root)"
 )

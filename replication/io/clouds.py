@@ -1,8 +1,9 @@
 """Point-cloud files: ``.csv``, ``.txt``, ``.xyz`` (text) and ``.npy`` (numpy).
 
 Text files hold three numeric columns (x, y, z) separated by commas or white space, with an
-optional header line and optional ``#`` comment lines. A header that names the three axes
-(``z,x,y``, ``X [mm],Y [mm],Z [mm]``) says which column is which; any other header is a label.
+optional header line and optional ``#`` comments (a whole line, or the end of one). A header
+that names the three axes (``z,x,y``, ``X [mm],Y [mm],Z [mm]``) says which column is which; any
+other header is a label.
 A first line ``0,1,2`` (or ``0 1 2``) may be pandas' header of column numbers (see
 :func:`_column_number_header`), except in the files :func:`save_cloud` writes: their ``.csv``
 has the header ``x,y,z``, and their ``.txt``/``.xyz`` start with the comment ``# x y z``.
@@ -111,11 +112,10 @@ def _load_text(path: Path) -> np.ndarray:
         )
     lines = text.splitlines()
     ours = bool(lines) and lines[0].strip() == TEXT_HEADER.strip()  # save_cloud's .txt/.xyz
-    numbered = [
-        (i, line)
-        for i, line in enumerate(lines, start=1)
-        if line.strip() and not line.lstrip().startswith("#")
-    ]
+    # a "#" starts a comment anywhere on a line, as numpy's reader has it: the header and the
+    # delimiter are decided on the data alone ("1 2 3 # first, in mm" was taken for a header
+    # because of its comma, and the point was dropped without a word)
+    numbered = [(i, data) for i, line in enumerate(lines, start=1) if (data := line.split("#", 1)[0]).strip()]
     if not numbered:
         raise CloudFileError(f"{path}: the file is empty (no data lines)")
     first_comma = "," in numbered[0][1]
@@ -126,7 +126,8 @@ def _load_text(path: Path) -> np.ndarray:
         if not numbered:
             raise CloudFileError(f"{path}: the file has a header but no data lines")
         order = _header_order(first_tokens)
-    elif first_tokens == ["0", "1", "2"] and not ours:
+    elif first_tokens == ["0", "1", "2"] and not ours and "#" not in lines[numbered[0][0] - 1]:
+        # (pandas writes no comments: "0,1,2 # the first point" is a point)
         numbered = _column_number_header(path, numbered)
     comma = "," in numbered[0][1]
     body = "\n".join(line for _, line in numbered)
