@@ -268,6 +268,34 @@ def test_a_header_naming_the_axes_says_which_column_is_which(tmp_path, header):
 
 
 @pytest.mark.parametrize(
+    ("header", "columns"),
+    [("depth,x,y", "2, 3 and 1"), ("y,x,height", "2, 1 and 3"), ("Y [mm];X [mm];h", "2, 1 and 3")],
+)
+def test_a_header_naming_two_axes_names_the_third_column_too(tmp_path, header, columns):
+    # was: any header not naming all three axes was a label, so "depth,x,y" read depth as x
+    from replication.errors import CloudFileWarning
+
+    by_name = {"x": 0, "y": 1, "depth": 2, "height": 2, "Y [mm]": 1, "X [mm]": 0, "h": 2}
+    names = header.replace(";", ",").split(",")
+    rows = "".join(",".join(str(p[by_name[n]]) for n in names) + "\n" for p in CLOUD)
+    (tmp_path / "h.csv").write_text(f"{header.replace(';', ',')}\n{rows}")
+    with pytest.warns(CloudFileWarning, match=rf"x, y and z were read from columns {columns}"):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "h.csv"), CLOUD)
+    (tmp_path / "labels.csv").write_text("x,y,height\n" + "".join(f"{x},{y},{z}\n" for x, y, z in CLOUD))
+    np.testing.assert_array_equal(load_cloud(tmp_path / "labels.csv"), CLOUD)  # axes in place: no warning
+
+
+@pytest.mark.parametrize(
+    ("header", "match"),
+    [("a,x,b", "names x as column 2 but not the other axes"), ("x,x,z", "names the axis x more than once")],
+)
+def test_a_header_that_cannot_say_which_column_is_which_is_refused(tmp_path, header, match):
+    (tmp_path / "h.csv").write_text(f"{header}\n0,1,2.5\n3,4,5\n6,7.5,8\n")
+    with pytest.raises(CloudFileError, match=match):
+        load_cloud(tmp_path / "h.csv")
+
+
+@pytest.mark.parametrize(
     ("name", "content", "match"),
     [
         ("a.csv", "x,y,z\n1,2,3\n4,5\n", r"line 3 has 2 column\(s\), expected 3"),

@@ -2,8 +2,8 @@
 
 Text files hold three numeric columns (x, y, z) separated by commas or white space, with an
 optional header line and optional ``#`` comments (a whole line, or the end of one). A header
-that names the three axes (``z,x,y``, ``X [mm],Y [mm],Z [mm]``) says which column is which; any
-other header is a label.
+that names the axes (``z,x,y``, ``X [mm],Y [mm],Z [mm]``, or two of them: ``depth,x,y``) says
+which column is which; a header naming none, or each in its own column, is a label.
 A first line ``0,1,2`` (or ``0 1 2``) may be pandas' header of column numbers (see
 :func:`_column_number_header`), except in the files :func:`save_cloud` writes: their ``.csv``
 has the header ``x,y,z``, and their ``.txt``/``.xyz`` start with the comment ``# x y z``.
@@ -125,7 +125,7 @@ def _load_text(path: Path) -> np.ndarray:
         numbered = numbered[1:]  # a header line: no numeric token at all (a malformed data line has some)
         if not numbered:
             raise CloudFileError(f"{path}: the file has a header but no data lines")
-        order = _header_order(first_tokens)
+        order = _header_order(path, first_tokens)
     elif first_tokens == ["0", "1", "2"] and not ours and "#" not in lines[numbered[0][0] - 1]:
         # (pandas writes no comments: "0,1,2 # the first point" is a point)
         numbered = _column_number_header(path, numbered)
@@ -162,18 +162,41 @@ def _axis_name(token: str) -> str:
     return name
 
 
-def _header_order(tokens: list[str]) -> list[int] | None:
-    """The column order that puts a header's x, y and z first to last, when it names all three.
+def _header_order(path: Path, tokens: list[str]) -> list[int] | None:
+    """The column order that puts a header's x, y and z first to last, when it names them.
 
     A header such as ``z,x,y`` (or ``Z [mm],X [mm],Y [mm]``) names its columns: they are read
     as the axes it names, so the cloud is the same as in a file that lists x, y, z in order.
-    Any other header is a label only, and the columns are x, y and z in file order.
+    A header naming two of the axes (``depth,x,y``) names the third column too. A header that
+    names no axis, or names them in their own columns (``x,y,height``), is a label only, and the
+    columns are x, y and z in file order.
+
+    Raises
+    ------
+    CloudFileError
+        A header of three columns that names one axis in another column (``a,x,b``) or an axis
+        twice: which column is which cannot be told, and file order would contradict it.
     """
     names = [_axis_name(t) for t in tokens]
-    if sorted(names) != ["x", "y", "z"]:
+    if len(names) != 3:
         return None
-    order = [names.index(axis) for axis in ("x", "y", "z")]
-    return None if order == [0, 1, 2] else order
+    named = [name for name in names if name in ("x", "y", "z")]
+    distinct = len(set(named)) == len(named)
+    if distinct and all(names[k] == axis for k, axis in enumerate("xyz") if axis in names):
+        return None  # no axis named, or each in its own column: file order
+    if distinct and len(named) >= 2:  # the column not named is the axis not named
+        unnamed = next((k for k in range(3) if names[k] not in named), -1)  # -1: all three named
+        order = [names.index(axis) if axis in names else unnamed for axis in ("x", "y", "z")]
+        return None if order == [0, 1, 2] else order
+    raise CloudFileError(
+        f"{path}: the header {', '.join(t.strip() for t in tokens)} names "
+        + (
+            f"the axis {', '.join(sorted(set(n for n in named if named.count(n) > 1)))} more than once"
+            if len(set(named)) != len(named)
+            else f"{named[0]} as column {names.index(named[0]) + 1} but not the other axes"
+        )
+        + ": name the columns x, y and z (in any order), or give no header"
+    )
 
 
 _NPY_MAGIC = b"\x93NUMPY"
