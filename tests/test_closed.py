@@ -172,6 +172,23 @@ def test_normal_along_an_axis_is_that_axis():
             parse_split(bad)
 
 
+def test_a_normal_of_huge_or_tiny_numbers_is_a_direction_like_any_other():
+    # was: "must be 3 finite numbers, not all zero" for (1e300, 1e300, 0) (its squares overflowed,
+    # with numpy's overflow warning) and for (1e-200, 1e-200, 0) (they underflowed to zero)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for big in (1e300, 1e-200, 5e-324):
+            assert SplitPlane((big, big, 0), 0.5) == SplitPlane((1, 1, 0), 0.5)
+            assert SplitPlane((0, 0, big), 1.0) == SplitPlane("z", 1.0)
+        assert parse_split("1e308,1e308,0=1") == SplitPlane((1, 1, 0), 1.0)
+        assert SplitPlane((1e200, 2e200, 2e200), 0).normal == pytest.approx([1 / 3, 2 / 3, 2 / 3])
+    for bad in ((0, 0, 0), (np.inf, 0, 1), (np.nan, 1, 1)):
+        with pytest.raises(InputError, match="finite numbers, not all zero"):
+            SplitPlane(bad, 0.0)
+
+
 def test_clouds_that_cannot_be_closed_say_why_in_one_line():
     cloud, _ = _ellipsoid_cloud()
     pinched = closed_adt(np.vstack([cloud, [[1.5, 0.0, 0.2]]]), "z=0")  # a cap point beyond the ring

@@ -37,7 +37,6 @@ Choices made here (documented and tested):
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -94,10 +93,12 @@ class SplitPlane:
                 raise InputError(
                     f"split plane axis must be x, y, z or a normal of 3 numbers, got {axis!r}"
                 ) from None
-            length = float(np.linalg.norm(normal)) if normal.shape == (3,) else math.nan
-            if not (np.isfinite(length) and length > 0):
+            if not (normal.shape == (3,) and np.isfinite(normal).all() and normal.any()):
                 raise InputError(f"split plane normal must be 3 finite numbers, not all zero, got {axis!r}")
-            normal = normal / length
+            largest = float(np.abs(normal).max())
+            if not 1e-150 < largest < 1e150:  # its squares would overflow or underflow: scale it first
+                normal = normal / largest  # (was: "must be ... not all zero" for (1e200, 1, 0))
+            normal = normal / float(np.linalg.norm(normal))
             unit = np.flatnonzero(normal == 1.0)
             object.__setattr__(self, "axis", int(unit[0]) if unit.size else tuple(float(c) for c in normal))
         if not np.isfinite(self.offset):
