@@ -23,6 +23,7 @@ import time
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -86,6 +87,39 @@ class SerialExecutor(cf.Executor):
         except BaseException as exc:  # the caller inspects it, like a real executor
             future.set_exception(exc)
         return future
+
+
+def run_bounded(
+    pool: cf.Executor,
+    tasks: Sequence[tuple[Any, Callable, tuple]],
+    max_parallel: int,
+    on_done: Callable[[Any, cf.Future], None],
+) -> None:
+    """Submit ``tasks`` (``(key, function, arguments)``) to ``pool`` in order, at most
+    ``max_parallel`` in flight, and call ``on_done(key, future)`` as each finishes (those that
+    finish together in the order they were submitted).
+
+    For slow, independent work such as SPH simulations, where a batch would wait for its
+    slowest member. Any exception (a Ctrl-C, a refused submit, one raised by ``on_done``)
+    cancels the tasks not started yet and propagates; those under way are the executor's to
+    wait for or abandon (see :func:`executor`).
+    """
+    waiting = list(tasks)
+    running: dict[cf.Future, tuple[int, Any]] = {}
+    order = 0
+    try:
+        while waiting or running:
+            while waiting and len(running) < max_parallel:
+                key, function, arguments = waiting.pop(0)
+                running[pool.submit(function, *arguments)] = (order, key)
+                order += 1
+            finished, _ = cf.wait(running, return_when=cf.FIRST_COMPLETED)
+            for future in sorted(finished, key=lambda f: running[f][0]):
+                on_done(running.pop(future)[1], future)
+    except BaseException:
+        for future in running:
+            future.cancel()
+        raise
 
 
 def evaluate_batch(

@@ -312,35 +312,26 @@ def score_surfaces(
 
 def _run(todo, jet, settings, cache_dir, timeout, simulate, executor, max_parallel, record) -> None:
     """Simulate ``todo`` (key -> task), at most ``max_parallel`` at a time."""
-    from replication.casestudy.evaluate import SerialExecutor
+    from replication.casestudy.evaluate import SerialExecutor, run_bounded
 
+    def finished(key: str, future: cf.Future) -> None:
+        task = todo[key]
+        try:
+            result = future.result()
+        except Exception as exc:  # the task failed (not the simulation): record, carry on
+            record(Scored(task.name, key, "error", f"{type(exc).__name__}: {exc}", None, False, None))
+            return
+        path = entry_path(cache_dir, key)
+        record(Scored(task.name, key, result.status, result.reason, result, False, path))
+
+    tasks = [
+        (key, _simulate_into_cache, (task, jet, settings, str(cache_dir), key, timeout, simulate))
+        for key, task in todo.items()
+    ]
     pool = executor if executor is not None else SerialExecutor()
-    waiting = list(todo.items())
-    running: dict[cf.Future, tuple[str, SurfaceTask]] = {}
-    try:
-        while waiting or running:
-            while waiting and len(running) < max_parallel:
-                key, task = waiting.pop(0)
-                try:
-                    future = pool.submit(
-                        _simulate_into_cache, task, jet, settings, str(cache_dir), key, timeout, simulate
-                    )
-                except cf.BrokenExecutor as exc:
-                    raise SimulationError(
-                        f"the executor broke ({exc}); finished simulations are cached: run again to resume"
-                    ) from exc
-                running[future] = (key, task)
-            finished, _ = cf.wait(running, return_when=cf.FIRST_COMPLETED)
-            for future in finished:
-                key, task = running.pop(future)
-                path = entry_path(cache_dir, key)
-                try:
-                    result = future.result()
-                except Exception as exc:  # the task failed (not the simulation): record, carry on
-                    record(Scored(task.name, key, "error", f"{type(exc).__name__}: {exc}", None, False, None))
-                    continue
-                record(Scored(task.name, key, result.status, result.reason, result, False, path))
-    except BaseException:
-        for future in running:  # nothing queued beyond these; a running simulation finishes into the cache
-            future.cancel()
-        raise
+    try:  # a running simulation finishes into the cache; those not started are cancelled
+        run_bounded(pool, tasks, max_parallel, finished)
+    except cf.BrokenExecutor as exc:
+        raise SimulationError(
+            f"the executor broke ({exc}); finished simulations are cached: run again to resume"
+        ) from exc

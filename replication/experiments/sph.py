@@ -12,6 +12,7 @@ to :mod:`replication.experiments.sph_claims`, which sets each reading of the pap
 from __future__ import annotations
 
 import concurrent.futures as cf
+import functools
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -207,7 +208,7 @@ def run_sph_study(
     -----
     Paper section 6: the forces 21.96 N (flat) and 19.08 N (bucket) from DualSPHysics.
     """
-    from replication.casestudy.evaluate import SerialExecutor
+    from replication.casestudy.evaluate import SerialExecutor, run_bounded
     from replication.casestudy.sph import SPHSettings, engine_version, surface_sph_force
 
     if isinstance(max_parallel, bool) or not isinstance(max_parallel, int) or max_parallel < 1:
@@ -216,28 +217,20 @@ def run_sph_study(
     pool = executor if executor is not None else SerialExecutor()
     started = time.perf_counter()
     plan = config.runs()
-    waiting = sorted(range(len(plan)), key=lambda k: plan[k].radius)  # finest (longest) first
     results: dict[int, Any] = {}
-    running: dict[cf.Future, int] = {}
-    try:
-        while waiting or running:
-            while waiting and len(running) < max_parallel:
-                k = waiting.pop(0)
-                settings = plan[k].settings(config.duration, config.jet.velocity)
-                future = pool.submit(
-                    score, SHAPES[plan[k].shape](), config.jet, settings, timeout=config.timeout
-                )
-                running[future] = k
-            finished, _ = cf.wait(running, return_when=cf.FIRST_COMPLETED)
-            for future in sorted(finished, key=running.__getitem__):
-                k = running.pop(future)
-                results[k] = future.result()
-                if on_run is not None:
-                    on_run(plan[k].label)
-    except BaseException:
-        for future in running:  # not started yet: never started; under way: the executor decides
-            future.cancel()
-        raise
+
+    def finished(k: int, future: cf.Future) -> None:
+        results[k] = future.result()
+        if on_run is not None:
+            on_run(plan[k].label)
+
+    timed = functools.partial(score, timeout=config.timeout)
+    velocity = config.jet.velocity
+    tasks = [
+        (k, timed, (SHAPES[plan[k].shape](), config.jet, plan[k].settings(config.duration, velocity)))
+        for k in sorted(range(len(plan)), key=lambda k: plan[k].radius)  # finest (longest) first
+    ]
+    run_bounded(pool, tasks, max_parallel, finished)
     rows, series = [], []
     for k, run in enumerate(plan):
         result = results[k]

@@ -15,6 +15,7 @@ import os
 import stat
 import tempfile
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
 
 from replication.errors import InputError, OutputError, shortened
@@ -39,15 +40,20 @@ Named = tuple[str, str | os.PathLike[str]]
 _ABSENT = frozenset({errno.ENOENT, errno.ENOTDIR, errno.EBADF, errno.ELOOP})
 
 
+@dataclass(frozen=True)
 class Found:
-    """What :func:`lookup` found at a path: ``exists``, ``is_dir``, ``is_file`` (links followed)."""
+    """What :func:`lookup` found at a path (symbolic links followed)."""
 
-    __slots__ = ("exists", "is_dir", "is_file")
+    exists: bool
+    is_dir: bool
+    is_file: bool
 
-    def __init__(self, mode: int | None) -> None:
-        self.exists = mode is not None
-        self.is_dir = mode is not None and stat.S_ISDIR(mode)
-        self.is_file = mode is not None and stat.S_ISREG(mode)
+    @classmethod
+    def of(cls, mode: int | None) -> Found:
+        """From a ``stat`` mode, or None for no entry."""
+        if mode is None:
+            return cls(False, False, False)
+        return cls(True, stat.S_ISDIR(mode), stat.S_ISREG(mode))
 
 
 def lookup(path: str | os.PathLike[str], error: Callable[[str], Exception], what: str) -> Found:
@@ -59,12 +65,12 @@ def lookup(path: str | os.PathLike[str], error: Callable[[str], Exception], what
     one line which of its paths was refused.
     """
     try:
-        return Found(os.stat(path).st_mode)
+        return Found.of(os.stat(path).st_mode)
     except ValueError:  # a NUL byte, or a name the file system's encoding cannot take
-        return Found(None)
+        return Found.of(None)
     except OSError as exc:
         if exc.errno in _ABSENT:
-            return Found(None)
+            return Found.of(None)
         raise error(f"{what} {shortened(path)}: {exc.strerror or exc}") from exc
 
 
