@@ -233,7 +233,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         p.add_argument(
             "--quick",
             action="store_true",
-            help=f"a reduced run (fewer repeats and seeds, under a minute) into {QUICK_DIR}/",
+            help=f"a reduced run (fewer repeats and seeds, a coarser NURBS tessellation; under a "
+            f"minute) into {QUICK_DIR}/",
         )
         p.add_argument(
             "--output-dir",

@@ -360,7 +360,10 @@ def render_table1(out_dir: str | os.PathLike[str]) -> Path:
     box = config["box"]
     lattice = f"on a {config['step']:g} mm lattice" if config["step"] else "continuous"
     quick = (
-        "\n> **Quick run** (reduced repeats and seeds, for smoke testing): not the committed full run.\n"
+        (
+            "\n> **Quick run** (reduced repeats, seeds and scale sweep, and a coarser NURBS tessellation, "
+            "for smoke testing): not the committed full run.\n"
+        )
         if config.get("quick")
         else ""
     )
