@@ -99,34 +99,36 @@ def test_resume_needs_a_run_directory_with_checkpoints(tmp_path, monkeypatch, ca
 
 
 _RENDER = """
-import sys
-from replication.report.casestudy import render_casestudy
+import importlib, sys
 from replication.report.parallel import fork_is_safe
 
 print(fork_is_safe())
-render_casestudy(sys.argv[1], workers=2)
+module, function, out = sys.argv[1:]
+getattr(importlib.import_module(module), function)(out, workers=2)
 """
 
 
-def test_figures_drawn_on_two_processes_are_the_files_drawn_on_one(quick_reports, tmp_path):
+@pytest.mark.parametrize("report", ["casestudy", "table1"])
+def test_figures_drawn_on_two_processes_are_the_files_drawn_on_one(quick_reports, tmp_path, report):
     """The report rendered with its figures on two forked processes equals the one-process render,
     byte for byte (a fresh interpreter: the test process itself has rendered with VTK already)."""
+    import importlib
     import shutil
     import subprocess
     import sys
 
-    from replication.report.casestudy import render_casestudy
-
+    module, function = f"replication.report.{report}", f"render_{report}"
     one, two = tmp_path / "one", tmp_path / "two"
     for out in (one, two):
         shutil.copytree(quick_reports / "data", out / "data")
-    render_casestudy(one, workers=1)
-    command = [sys.executable, "-c", _RENDER, str(two)]
+    getattr(importlib.import_module(module), function)(one, workers=1)
+    command = [sys.executable, "-c", _RENDER, module, function, str(two)]
     done = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["True"]  # the figures really went to forked workers
     files = sorted(p.relative_to(one) for p in one.rglob("*") if p.is_file())
     assert files == sorted(p.relative_to(two) for p in two.rglob("*") if p.is_file())
     assert any(f.suffix == ".png" for f in files)
+    assert any(f.name.startswith(f"{report}_") for f in files)
     for name in files:
         assert (one / name).read_bytes() == (two / name).read_bytes(), name

@@ -27,8 +27,12 @@ def test_bad_worker_counts_are_refused(workers):
 
 
 _FORKED = """
-import functools, json, os
+import functools, json, os, sys
 from replication.report.parallel import fork_is_safe, run_figure_tasks
+from replication.io.vtk import write_vtp
+from replication.surfaces import adt, random_cloud
+
+write_vtp(adt(random_cloud(20, rng=1)), sys.argv[1])  # VTK's data and IO modules: no reason not to fork
 
 def pid_and(value):
     return os.getpid(), value
@@ -39,12 +43,14 @@ print(json.dumps([fork_is_safe(), os.getpid(), run_figure_tasks(calls, workers=2
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="figure workers are forked on Linux only")
-def test_calls_run_on_forked_workers_when_that_is_safe():
-    """In a fresh interpreter (one thread, no VTK): the calls run in other processes, in order."""
+def test_calls_run_on_forked_workers_when_that_is_safe(tmp_path):
+    """In a fresh interpreter (one thread, VTK loaded to write a mesh, no rendering): the calls
+    run in other processes, in order."""
     import json
     import subprocess
 
-    done = subprocess.run([sys.executable, "-c", _FORKED], capture_output=True, text=True, timeout=120)
+    command = [sys.executable, "-c", _FORKED, str(tmp_path / "s.vtp")]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     safe, parent, results = json.loads(done.stdout)
     assert safe
@@ -66,6 +72,27 @@ def test_no_fork_once_vtk_is_loaded_or_another_thread_runs(monkeypatch):
     finally:
         release.set()
         other.join()
+
+
+def _vtk_core(backend):
+    """A stand-in for ``vtkmodules.vtkCommonCore`` whose parallel loops use ``backend``."""
+    smp = type("vtkSMPTools", (), {"GetBackend": staticmethod(lambda: backend)})
+    return type("vtkCommonCore", (), {"vtkSMPTools": smp})
+
+
+def test_no_fork_while_vtk_keeps_threads_of_its_own(monkeypatch):
+    """VTK's state alone (the test process may run other threads, which forbid a fork anyway)."""
+    from replication.report.parallel import _vtk_forks_safely
+
+    for name in [m for m in sys.modules if m.startswith(("vtkmodules.vtkRendering", "pyvista.plotting"))]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, "vtkmodules.vtkCommonCore", _vtk_core("Sequential"))
+    assert _vtk_forks_safely()
+    monkeypatch.setitem(sys.modules, "vtkmodules.vtkCommonCore", _vtk_core("STDThread"))
+    assert not _vtk_forks_safely() and not fork_is_safe()
+    monkeypatch.setitem(sys.modules, "vtkmodules.vtkCommonCore", _vtk_core("Sequential"))
+    monkeypatch.setitem(sys.modules, "vtkmodules.vtkRenderingCore", object())
+    assert not _vtk_forks_safely()
 
 
 def test_an_error_in_a_call_is_raised_here():

@@ -29,7 +29,7 @@ def _run_table1(out: Path, quick: bool, command: str, workers: int | None = None
     results = run_table1(config, progress=progress_bar, command=command, workers=workers)
     with say_when_publishing_waits():
         save_table1_data(results, out)
-    return render_table1(out)
+    return render_table1(out, workers=workers)
 
 
 def _said(written: list[Path], out: Path) -> None:

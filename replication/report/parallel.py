@@ -10,8 +10,11 @@ inherit the loaded modules), or in this process, one after another, when:
 * forking is not safe here: not Linux, or other threads run (see
   :func:`replication.casestudy.interrupts.quiet_worker_context`; a spawned worker would
   spend a second importing what a fork inherits);
-* this process has already loaded VTK: a forked child must not inherit the graphics state
-  of a render window (EGL, Mesa) made by its parent.
+* this process has loaded VTK's rendering (a forked child must not inherit the graphics
+  state of a render window, EGL or Mesa, made by its parent), or VTK runs its parallel loops
+  on threads of its own (an SMP backend other than ``Sequential``, which the PyPI wheel uses
+  by default): writing or reading a mesh, which loads VTK's data and IO modules only, does
+  not prevent a fork.
 
 The figures are the same either way: each call writes its own files, atomically, and
 returns what the report needs to know of it.
@@ -32,8 +35,19 @@ def fork_is_safe() -> bool:
     """Whether figure tasks may run in processes forked from this one (see the module notes)."""
     from replication.casestudy.interrupts import quiet_worker_context
 
-    vtk = any(name == "vtkmodules" or name.startswith("vtkmodules.") for name in sys.modules)
-    return not vtk and quiet_worker_context().get_start_method() == "fork"
+    return _vtk_forks_safely() and quiet_worker_context().get_start_method() == "fork"
+
+
+def _vtk_forks_safely() -> bool:
+    """No render window can exist here, and VTK keeps no threads (see the module notes)."""
+    if any(name.startswith(_RENDERING) for name in sys.modules):
+        return False
+    core = sys.modules.get("vtkmodules.vtkCommonCore")
+    return core is None or core.vtkSMPTools.GetBackend() == "Sequential"
+
+
+#: Modules whose presence means a render window may have been made in this process.
+_RENDERING = ("vtkmodules.vtkRendering", "vtkmodules.vtkInteraction", "pyvista.plotting")
 
 
 def run_figure_tasks(calls: Sequence[Callable[[], T]], *, workers: int = 1) -> list[T]:
@@ -55,7 +69,12 @@ def run_figure_tasks(calls: Sequence[Callable[[], T]], *, workers: int = 1) -> l
     """
     if workers < 1:
         raise ValueError(f"workers must be a positive integer, got {workers!r}")
-    if workers == 1 or len(calls) <= 1 or not fork_is_safe():
+    if workers == 1 or len(calls) <= 1:
+        return [call() for call in calls]
+    from replication.kernels import release_threads
+
+    release_threads()  # the idle threads of the kernels' pool would make a fork unsafe
+    if not fork_is_safe():
         return [call() for call in calls]
     from replication.casestudy.evaluate import executor
 

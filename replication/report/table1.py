@@ -8,6 +8,7 @@ without re-running the experiment. Every number in the markdown comes from the C
 
 from __future__ import annotations
 
+import functools
 import os
 from pathlib import Path
 from typing import Any
@@ -21,6 +22,7 @@ from replication.io.nurbs import write_nurbs
 from replication.io.vtk import read_surface, write_vtk
 from replication.report.figures import clear_figures, fig6, figure_files, scale_figure
 from replication.report.markdown import fmt, iqr, provenance_section, table
+from replication.report.parallel import run_figure_tasks
 from replication.report.render3d import render_views
 from replication.report.store import data_set, read_csv, read_json, write_csv, write_json
 
@@ -95,11 +97,12 @@ def _ratio(frame: pd.DataFrame, n: int, quantity: str) -> str:
     return iqr(r["median"], r["q1"], r["q3"])
 
 
-def _images(d: dict[str, Any], out: Path) -> tuple[str, str]:
+def _images(ns: list[int], out: Path) -> tuple[str, str]:
+    """The 3-D views of the saved meshes of each n: the markdown table and the renderer used."""
     figures = out / "figures"
     meshes = out / "data" / "table1_meshes"
     views, rows = {}, []
-    for n in d["clouds"]["n"]:
+    for n in ns:
         adt_mesh = read_surface(meshes / f"n{n}_adt.vtk")
         nurbs_mesh = read_surface(meshes / f"n{n}_nurbs_tessellation.vtk")
         names = {kind: figures / f"table1_n{n}_{kind}.png" for kind in ("adt", "nurbs", "overlay")}
@@ -343,16 +346,27 @@ def _survival(d: dict[str, Any]) -> str:
     return "\n".join(f"- {p}" for p in parts)
 
 
-def render_table1(out_dir: str | os.PathLike[str]) -> Path:
-    """Render ``table1.md`` and its figures from the saved data in ``out_dir``."""
+def render_table1(out_dir: str | os.PathLike[str], *, workers: int = 1) -> Path:
+    """Render ``table1.md`` and its figures from the saved data in ``out_dir``.
+
+    The figures (Fig. 6, the scale sweep's and the 3-D views, about 2 s each) are drawn on up
+    to ``workers`` processes at once (:func:`.parallel.run_figure_tasks`); the files are the
+    same for any number.
+    """
     out = Path(out_dir)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     d = load_table1_data(out)
     earlier = figure_files(out / "figures", "table1_")  # those not drawn again are an earlier run's
     prov, config = d["provenance"], d["provenance"]["config"]
-    fig6(d["montecarlo"], out / "figures" / "table1_fig6")
-    scale_figure(d["scale"], out / "figures" / "table1_scale")
-    images, renderer = _images(d, out)
+    drawn = run_figure_tasks(  # the longest first
+        [
+            functools.partial(_images, [int(n) for n in d["clouds"]["n"]], out),
+            functools.partial(fig6, d["montecarlo"], out / "figures" / "table1_fig6"),
+            functools.partial(scale_figure, d["scale"], out / "figures" / "table1_scale"),
+        ],
+        workers=workers,
+    )
+    images, renderer = drawn[0]
     mc_sizes, mc_verdicts = _mc_tables(d)
     scale_times, scale_exps, scale_files = _scale_tables(d)
     storage_ratios, storage_sizes = _storage_tables(d)
