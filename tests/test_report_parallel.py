@@ -82,9 +82,9 @@ def _vtk_core(backend):
 
 def test_no_fork_while_vtk_keeps_threads_of_its_own(monkeypatch):
     """VTK's state alone (the test process may run other threads, which forbid a fork anyway)."""
-    from replication.report.parallel import _vtk_forks_safely
+    from replication.report.parallel import _RENDERING, _vtk_forks_safely
 
-    for name in [m for m in sys.modules if m.startswith(("vtkmodules.vtkRendering", "pyvista.plotting"))]:
+    for name in [m for m in sys.modules if m.startswith(_RENDERING)]:
         monkeypatch.delitem(sys.modules, name)
     monkeypatch.setitem(sys.modules, "vtkmodules.vtkCommonCore", _vtk_core("Sequential"))
     assert _vtk_forks_safely()
