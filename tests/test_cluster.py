@@ -27,6 +27,10 @@ class FakeClient:
 
     def __init__(self):
         self.cancelled = []
+        self.ran = []
+
+    def run(self, function, on_error="raise"):
+        self.ran.append(function)
 
     def register_plugin(self, plugin):
         pass
@@ -103,3 +107,16 @@ def test_a_future_cancelled_while_the_executor_is_open_is_not_reported(monkeypat
         callbacks.removeHandler(recorder)
     shown = [record.exc_info[0].__name__ for record in recorder.records]
     assert shown == ["RuntimeError", "FutureCancelledError"]
+
+
+@pytest.mark.parametrize("local", [False, True], ids=["scheduler", "local"])
+def test_a_local_clusters_workers_are_quietened_before_it_closes(local):
+    """Closing a local cluster raced its workers' heartbeats: a loaded machine printed a
+    worker's "Failed to communicate with scheduler during heartbeat" after a finished run."""
+    client = FakeClient()
+    with cluster._log_levels_restored():
+        executor = cluster._dask_executor(client, None, local=local)
+        next(executor)
+        with pytest.raises(StopIteration):  # the block ended normally
+            next(executor)
+    assert client.ran == ([cluster._quiet] if local else [])  # a user's own workers are left alone

@@ -216,9 +216,27 @@ def _dask_executor(client, on_interrupt, *, local: bool) -> Iterator[cf.Executor
                 _abandon_local(client)
             raise
         raise
+    else:
+        if local:
+            _quiet_workers(client)
     finally:
         _quiet()
         pool.shutdown(wait=False)
+
+
+def _quiet_workers(client) -> None:  # type: ignore[no-untyped-def]
+    """The local cluster's workers log nothing below CRITICAL either, before it closes.
+
+    Closing a local cluster races the workers' heartbeats: on a loaded machine a worker
+    whose heartbeat met the closed scheduler logged "Failed to communicate with scheduler
+    during heartbeat" with a traceback, on the command's stderr, after every result was in.
+    Only on a normal exit (after an error or Ctrl-C a worker may not answer) and only for a
+    local cluster (a user's scheduler and its workers are left as they are).
+    """
+    try:
+        client.run(_quiet, on_error="ignore")
+    except Exception:  # the cluster cannot be asked: it has nothing more to say either
+        pass
 
 
 def _quiet() -> None:
