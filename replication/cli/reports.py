@@ -245,11 +245,11 @@ def register(sub: argparse._SubParsersAction) -> None:
             "--workers",
             type=positive_int,
             metavar="N",
-            help="worker processes for the untimed work (Table 1's paired statistics, storage sizes and "
-            "scale-sweep file sizes"
+            help="worker processes for the untimed work (Table 1's paired statistics, storage sizes, "
+            "scale-sweep file sizes and figures"
             + (
-                "; the case study's fitness evaluations; the SPH study's simulations at a time, default 2 "
-                "there"
+                "; the case study's fitness evaluations and figures; the SPH study's simulations at a "
+                "time, default 2 there"
                 if name == "reproduce"
                 else ""
             )

@@ -359,7 +359,8 @@ def render_table1(out_dir: str | os.PathLike[str], *, workers: int = 1) -> Path:
     earlier = figure_files(out / "figures", "table1_")  # those not drawn again are an earlier run's
     prov, config = d["provenance"], d["provenance"]["config"]
     # the 3-D views take about as long as the two plots together: on two workers, this order
-    # ends with both at once, and one process draws the plots first, as it always did
+    # ends with both at once. One process draws them in this order too, so corrupt Monte Carlo
+    # data are named before missing meshes, and missing meshes before corrupt scale data
     drawn = run_figure_tasks(
         [
             functools.partial(fig6, d["montecarlo"], out / "figures" / "table1_fig6"),
