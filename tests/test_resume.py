@@ -192,6 +192,24 @@ def test_ctrl_c_while_the_report_data_are_saved_keeps_the_previous_data_set(caps
     assert provenance["config"]["seed"] == 6
 
 
+def test_ctrl_c_while_table1_is_drawn_says_the_data_are_saved(capsys, tmp_path, monkeypatch):
+    def ctrl_c(out, workers=1):
+        raise KeyboardInterrupt
+
+    saved = []
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("replication.experiments.table1.run_table1", lambda config, **kw: "results")
+    monkeypatch.setattr("replication.report.table1.save_table1_data", lambda *args: saved.append(args))
+    monkeypatch.setattr("replication.report.table1.render_table1", ctrl_c)
+    assert main(["table1", "--quick", "--output-dir", "out dir"]) == 130
+    err = capsys.readouterr().err
+    assert [(res, str(out)) for res, out in saved] == [("results", "out dir")]
+    assert "interrupted while drawing the report: its data are saved in out dir/data" in err
+    hint = shlex.split(err.split("draw it with: ", 1)[1].splitlines()[0])
+    assert hint == ["replication", "report", "--output-dir", "out dir"]
+    assert err.strip().splitlines()[-1] == "replication table1: interrupted"
+
+
 def test_ctrl_c_while_the_report_is_drawn_says_the_data_are_saved(capsys, tmp_path, monkeypatch):
     def ctrl_c(out, workers=1):
         raise KeyboardInterrupt

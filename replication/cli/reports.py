@@ -29,7 +29,18 @@ def _run_table1(out: Path, quick: bool, command: str, workers: int | None = None
     results = run_table1(config, progress=progress_bar, command=command, workers=workers)
     with say_when_publishing_waits():
         save_table1_data(results, out)
-    return render_table1(out, workers=workers)
+    try:
+        return render_table1(out, workers=workers)
+    except KeyboardInterrupt:  # minutes of experiment are saved: say so, and how to draw them
+        import shlex
+
+        command = shlex.join(["replication", "report", "--output-dir", str(out)])
+        print(
+            f"interrupted while drawing the report: its data are saved in {out / 'data'}; "
+            f"draw it with: {command}",
+            file=sys.stderr,
+        )
+        raise
 
 
 def _said(written: list[Path], out: Path) -> None:
