@@ -3,7 +3,6 @@
 import functools
 import os
 import sys
-import threading
 
 import pytest
 
@@ -38,40 +37,47 @@ def pid_and(value):
     return os.getpid(), value
 
 calls = [functools.partial(pid_and, k) for k in range(3)]
-print(json.dumps([fork_is_safe(), os.getpid(), run_figure_tasks(calls, workers=2)]))
+safe, forked = fork_is_safe(), run_figure_tasks(calls, workers=2)
+import threading
+release = threading.Event()
+other = threading.Thread(target=release.wait)
+other.start()
+with_thread, here = fork_is_safe(), run_figure_tasks(calls, workers=2)  # another thread: no fork
+release.set()
+other.join()
+print(json.dumps([safe, os.getpid(), forked, with_thread, here, fork_is_safe()]))
 """
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="figure workers are forked on Linux only")
 def test_calls_run_on_forked_workers_when_that_is_safe(tmp_path):
     """In a fresh interpreter (one thread, VTK loaded to write a mesh, no rendering): the calls
-    run in other processes, in order."""
+    run in other processes, in order; while another thread runs, here (the test process
+    itself may run pytest-xdist's threads, so this is checked in a process of its own)."""
     import json
     import subprocess
 
     command = [sys.executable, "-c", _FORKED, str(tmp_path / "s.vtp")]
     done = subprocess.run(command, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
-    safe, parent, results = json.loads(done.stdout)
-    assert safe
-    assert [value for _, value in results] == [0, 1, 2]
+    safe, parent, results, with_thread, here, safe_again = json.loads(done.stdout)
+    assert safe and not with_thread and safe_again
+    assert [value for _, value in results] == [0, 1, 2] == [value for _, value in here]
     assert parent not in {pid for pid, _ in results}
+    assert {pid for pid, _ in here} == {parent}
 
 
-def test_no_fork_once_vtk_is_loaded_or_another_thread_runs(monkeypatch):
+def test_no_fork_once_vtk_rendering_is_loaded(monkeypatch):
+    from replication.report.parallel import _RENDERING, _vtk_forks_safely
+
+    for name in [m for m in sys.modules if m.startswith(_RENDERING)]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.delitem(sys.modules, "vtkmodules.vtkCommonCore", raising=False)
+    assert _vtk_forks_safely()  # so that the check below can fail
     monkeypatch.setitem(sys.modules, "vtkmodules.vtkRenderingCore", object())
-    assert not fork_is_safe()
+    assert not _vtk_forks_safely() and not fork_is_safe()
     done = run_figure_tasks([functools.partial(_pid_and, 1)] * 2, workers=2)
     assert {pid for pid, _ in done} == {os.getpid()}
-    monkeypatch.delitem(sys.modules, "vtkmodules.vtkRenderingCore")
-    release = threading.Event()
-    other = threading.Thread(target=release.wait)
-    other.start()
-    try:
-        assert not fork_is_safe()
-    finally:
-        release.set()
-        other.join()
 
 
 def _vtk_core(backend):
