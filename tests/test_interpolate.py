@@ -145,3 +145,28 @@ def test_the_kernels_index_arrays_are_checked_not_read_out_of_bounds():
         with pytest.raises(InputError, match=match):
             call()
     assert interpolate_linear(uv, good, np.array([1.0, 2.0, 3.0]), q)[0] == pytest.approx(1.6)
+
+
+@pytest.mark.filterwarnings("ignore::replication.errors.DuplicatePointsWarning")
+@pytest.mark.parametrize("step", [None, 1.0])
+def test_raster_in_pieces_matches_one_sequential_pass(monkeypatch, step):
+    """Large triangulations are rasterized in ``_RUNS`` pieces on threads, each on its own
+    grid; a node on an edge shared by two pieces goes to the lower piece, as in one pass.
+    Lattice clouds put grid nodes exactly on shared edges and vertices."""
+    from replication.surfaces import _grid
+
+    for seed in range(4):
+        surface = adt(random_cloud(400 + 91 * seed, step=step, rng=seed))
+        xy, tri = surface.projected(), surface.triangles
+        depth = surface.points[:, surface.depth_axis]
+        lo, hi = xy.min(axis=0), xy.max(axis=0)
+        u, v = np.linspace(lo[0], hi[0], 41 + seed), np.linspace(lo[1], hi[1], 37)
+        owner, out = _grid.raster(xy, tri, depth, u, v)
+        assert tri.shape[0] < _grid._PIECES_MIN  # the reference is the single pass
+        monkeypatch.setattr(_grid, "_PIECES_MIN", 1)
+        pieces_owner, pieces_out = _grid.raster(xy, tri, depth, u, v)
+        monkeypatch.undo()
+        assert np.array_equal(pieces_owner, owner)
+        inside = owner >= 0
+        assert inside.any() and (~inside).any()
+        assert np.array_equal(pieces_out[inside], out[inside])
