@@ -65,7 +65,7 @@ def test_quick_asv_run_records_results(asv_results):
     assert list((results / "pytest-machine").glob("*.json"))
 
 
-def test_performance_report_from_asv_results(asv_results, tmp_path, capsys):
+def test_performance_report_from_asv_results(asv_results, tmp_path, capsys, monkeypatch):
     results, _ = asv_results
     code = main(["report", "--performance", "--asv-results", str(results), "--output-dir", str(tmp_path)])
     assert code == 0
@@ -79,3 +79,15 @@ def test_performance_report_from_asv_results(asv_results, tmp_path, capsys):
     # a --quick run is one sample per benchmark: kept apart from measurements, and marked
     quick = text.split("## Single-sample runs (`asv run --quick`) on machine `pytest-machine`", 1)[1]
     assert "(1 sample)" in quick and "No measured commits." in text
+    # a checkout without asv's files (the default .asv/results absent) redraws it from the archive
+    assert (tmp_path / "data" / "performance_asv.csv").is_file()
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    assert main(["report", "--performance", "--output-dir", str(tmp_path)]) == 0
+    assert (tmp_path / "performance.md").read_text() == text
+    # asked for by name, a missing results directory is an error, and the page stays
+    capsys.readouterr()
+    code = main(["report", "--performance", "--asv-results", "nowhere", "--output-dir", str(tmp_path)])
+    assert code != 0 and "no asv results in nowhere" in capsys.readouterr().err
+    assert (tmp_path / "performance.md").read_text() == text

@@ -239,3 +239,105 @@ def test_odd_asv_files_are_one_line_errors_naming_the_file(tmp_path, change, mat
     (results / "benchmarks.json").write_text("[1, 2]")
     with pytest.raises(ReportDataError, match="expected a JSON object, got list"):
         load_asv_results(results)
+
+
+def _without(text, title):
+    """The page without one section (the comparison: page-recovered values cannot be tested)."""
+    head, _, rest = text.partition(title)
+    return head + ("\n## " + rest.split("\n## ", 1)[1] if "\n## " in rest else "")
+
+
+def test_archive_round_trip_keeps_every_field(history, tmp_path):
+    from pandas.testing import assert_frame_equal
+
+    from replication.report.asv_archive import read_archive, write_archive
+
+    frame = load_asv_results(history).assign(source="asv")
+    write_archive(frame, tmp_path / "a.csv")
+    back = read_archive(tmp_path / "a.csv")
+    assert list(back.samples) == list(frame.samples)  # tuples of exact floats, or None
+    assert_frame_equal(back.drop(columns="samples"), frame.drop(columns="samples"), check_dtype=False)
+    assert back.started_at.dt.tz is not None and back.date.dt.tz is not None
+
+
+def test_the_page_keeps_its_history_without_asvs_files(history, tmp_path):
+    """performance.md drawn again where asv's files are gone (a fresh checkout) is the same page;
+    new results add a commit to the history instead of replacing it."""
+    import shutil
+
+    out = tmp_path / "out"
+    first = render_performance(history, out).read_text(encoding="utf-8")
+    assert (out / "data" / "performance_asv.csv").is_file()
+    shutil.rmtree(history)
+    assert render_performance(None, out).read_text(encoding="utf-8") == first
+    fast, slow = spread_rows()
+    newer = write_results(tmp_path / "new", [("dddddddd44", 4, {"b.T.time_adt": timing([1e-4, 2e-3], samples=[
+        [1e-4] * 10, slow])})])  # fmt: skip
+    text = render_performance(newer, out).read_text(encoding="utf-8")
+    measured = _section(text, "## Machine `m1`")
+    assert all(f"`{c}` (" in measured for c in ("aaaaaaaa", "bbbbbbbb", "dddddddd"))
+    assert "## Comparison `bbbbbbbb` → `dddddddd`" in text
+    assert "| 1 ms ±10 % | 3 ms (no spread recorded) |" in measured  # b.time_plain: not measured at d
+    # asv holding a value again replaces the archived one, never doubles it
+    again = write_results(tmp_path / "again", [("dddddddd44", 4, {"b.T.time_adt": timing([1e-4, 4e-3])})])
+    text = render_performance(again, out).read_text(encoding="utf-8")
+    assert "4 ms ±5 %" in _section(text, "## Machine `m1`") and "2 ms ±" not in _section(text, "### `b.T")
+
+
+def test_nothing_to_draw_from_is_one_line_error(tmp_path):
+    from replication.errors import CloudFileError
+
+    with pytest.raises(CloudFileError, match="no asv results and no archive .*performance_asv.csv"):
+        render_performance(None, tmp_path / "out")
+    assert not (tmp_path / "out" / "performance.md").exists()
+
+
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        (lambda t: t.replace(",source\n", ",origin\n", 1), "missing column.*source"),
+        (lambda t: t.replace(",asv\n", ",elsewhere\n", 1), "unknown source 'elsewhere'"),
+        (lambda t: t.replace("2023-11-", "yesterday-", 1), "not a readable performance archive"),
+        (lambda t: t[: len(t) // 2], "cut short|fields"),
+    ],
+)
+def test_a_damaged_archive_is_one_line_error_naming_it(history, tmp_path, change, match):
+    from replication.errors import ReportDataError
+
+    out = tmp_path / "out"
+    render_performance(history, out)
+    kept = out / "data" / "performance_asv.csv"
+    kept.write_text(change(kept.read_text(encoding="utf-8")), encoding="utf-8")
+    before = (out / "performance.md").read_bytes()
+    with pytest.raises(ReportDataError, match=match) as info:
+        render_performance(history, out)
+    assert "performance_asv.csv" in str(info.value) and "\n" not in str(info.value)
+    assert (out / "performance.md").read_bytes() == before  # nothing rewritten
+
+
+def test_a_pages_history_is_recovered_as_it_was_shown(history, tmp_path):
+    """rows_from_page reads the history tables back: the page drawn from them alone shows the
+    same history (values to the page's digits); only the comparison, which needs samples, goes."""
+    import pandas as pd
+
+    from replication.report.asv_archive import rows_from_page, write_archive
+
+    text = render_performance(history, tmp_path / "out").read_text(encoding="utf-8")
+    frame = load_asv_results(history)
+    dates = dict(zip(frame.commit, frame.date))
+    rows = rows_from_page(text, {**BENCHMARKS}, dates)
+    assert set(rows.source) == {"page"} and set(rows.commit) == {"aaaaaaaa", "bbbbbbbb"}  # not the quick run
+    assert rows.samples.isna().all() or all(s is None for s in rows.samples)
+    (tmp_path / "page" / "data").mkdir(parents=True)
+    write_archive(rows, tmp_path / "page" / "data" / "performance_asv.csv")
+    again = render_performance(None, tmp_path / "page").read_text(encoding="utf-8")
+    assert "were recovered from an earlier version of this page" in again
+    title = "## Comparison `aaaaaaaa` → `bbbbbbbb` (machine `m1`)"
+    assert (
+        _section(again, "## Machine `m1`").split(title)[0]
+        == _section(text, "## Machine `m1`").split(title)[0]
+    )
+    assert "| cannot tell |" in _section(again, title) and "| slower |" not in _section(again, title)
+    with pytest.raises(ValueError, match="b.gone is not in benchmarks.json"):
+        rows_from_page(text.replace("b.time_plain", "b.gone"), BENCHMARKS, dates)
+    assert isinstance(rows.date.iloc[0], pd.Timestamp)

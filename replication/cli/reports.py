@@ -17,6 +17,8 @@ from replication.cli.progress import progress_bar
 from replication.kernels import release_threads, warm_up
 
 #: The markdown files ``replication report`` may write.
+#: asv's results directory in a checkout (``results_dir`` of asv.conf.json).
+DEFAULT_ASV_RESULTS = ".asv/results"
 RENDERED = ("table1.md", "sph.md", "casestudy.md", "performance.md", "index.md")
 
 
@@ -133,13 +135,18 @@ def _cmd_report(args: argparse.Namespace) -> int:
         what = "is a file" if found.exists else "does not exist"
         raise ReportDataError(f"reports directory {out} {what}: run `replication reproduce` first")
     # data/ is only read here (it may be on a read-only share); figures/ is written
-    check_report_dir(out, "--output-dir" if args.output_dir else "the reports directory", ("figures",))
+    written_dirs = ("figures", "data") if args.performance else ("figures",)  # data/: the asv archive
+    check_report_dir(out, "--output-dir" if args.output_dir else "the reports directory", written_dirs)
     readme = _check_readme(args.readme, out) if args.readme else None
     written = []
     if args.performance:
         from replication.report.performance import render_performance
 
-        written.append(render_performance(args.asv_results, out, commits=args.commits))
+        # asv's default directory may be absent (a fresh checkout): the archive alone draws the page
+        results = args.asv_results or DEFAULT_ASV_RESULTS
+        if args.asv_results is None and not lookup(Path(results), ReportDataError, "--asv-results").exists:
+            results = None
+        written.append(render_performance(results, out, commits=args.commits))
     if (out / "data" / "table1_provenance.json").is_file():
         written.append(_render(render_table1, "table1", out))
     if (out / "data" / "sph_provenance.json").is_file():
@@ -277,13 +284,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--performance",
         action="store_true",
-        help="also write performance.md from the asv results (run `asv run` first; see the README)",
+        help=(
+            "also write performance.md: asv's results merged into the archive DIR/data/performance_asv.csv, "
+            "and the page drawn from it (run `asv run` first; see the README)"
+        ),
     )
     p.add_argument(
         "--asv-results",
         metavar="DIR",
-        default=".asv/results",
-        help="asv's results directory (default: .asv/results)",
+        help=f"asv's results directory (default: {DEFAULT_ASV_RESULTS}; if absent, the archive alone)",
     )
     p.add_argument(
         "--commits",

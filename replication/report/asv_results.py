@@ -29,7 +29,7 @@ import pandas as pd
 
 from replication.errors import CloudFileError, ReportDataError
 
-__all__ = ["COLUMNS", "load_asv_results", "single_sample"]
+__all__ = ["COLUMNS", "load_asv_results", "params_text", "single_sample"]
 
 #: Columns of :func:`load_asv_results`.
 COLUMNS = [
@@ -69,7 +69,8 @@ def _number(value: object) -> float:
     return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else math.nan
 
 
-def _params_text(names: list[str], combo: tuple) -> str:
+def params_text(names: list[str], combo: tuple) -> str:
+    """A parameter combination as the page shows it: ``n=9, backend=sweephull``."""
     # asv stores parameter values as their reprs: 'sweephull' with quotes
     return ", ".join(f"{k}={str(v).strip(chr(39))}" for k, v in zip(names, combo))
 
@@ -106,7 +107,7 @@ def _rows(machine: str, data: dict, benchmarks: dict[str, dict]) -> list[dict]:
                     "env": data.get("env_name", ""),
                     "benchmark": name,
                     "kind": info.get("type", name.rsplit(".", 1)[-1].split("_", 1)[0]),
-                    "params": _params_text(info.get("param_names", []), combo),
+                    "params": params_text(info.get("param_names", []), combo),
                     "param_index": j,  # position in asv's parameter grid, for ordering
                     "unit": info.get("unit", ""),
                     "status": status,

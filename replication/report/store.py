@@ -50,19 +50,30 @@ def write_csv(frame: pd.DataFrame, path: str | os.PathLike[str]) -> int:
     return atomic_write_text(path, buffer.getvalue())
 
 
-def read_csv(path: str | os.PathLike[str], columns: tuple[str, ...] = ()) -> pd.DataFrame:
+def read_csv(
+    path: str | os.PathLike[str], columns: tuple[str, ...] = (), *, text: tuple[str, ...] = ()
+) -> pd.DataFrame:
     """Read report data; a missing, malformed or incomplete file is a :class:`ReportDataError`.
 
-    ``columns`` are required: a file without one of them is refused, naming them.
+    ``columns`` are required: a file without one of them is refused, naming them. Columns
+    named in ``text`` are read as strings, empty fields as ``""`` (a commit hash such as
+    ``1234e567`` is not a number).
     """
     path = Path(path)
     if not path.is_file():
         raise ReportDataError(f"report data not found: {path} (run the experiment first)")
     try:
         with open(path, encoding="utf-8", newline="") as handle:  # "\r\n" in a quoted field stays
-            text = handle.read()
-        _check_rows(text)
-        frame = pd.read_csv(io.StringIO(text))
+            content = handle.read()
+        _check_rows(content)
+        if text:  # only an empty field is missing ("None" may be a parameter's name)
+            frame = pd.read_csv(
+                io.StringIO(content), dtype=dict.fromkeys(text, str), keep_default_na=False, na_values=[""]
+            )
+            present = [c for c in text if c in frame.columns]
+            frame[present] = frame[present].fillna("")
+        else:
+            frame = pd.read_csv(io.StringIO(content))
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError) as exc:
         reason = " ".join(str(exc).split())
         raise ReportDataError(
