@@ -341,3 +341,8 @@ def test_a_pages_history_is_recovered_as_it_was_shown(history, tmp_path):
     with pytest.raises(ValueError, match="b.gone is not in benchmarks.json"):
         rows_from_page(text.replace("b.time_plain", "b.gone"), BENCHMARKS, dates)
     assert isinstance(rows.date.iloc[0], pd.Timestamp)
+    assert set(rows[rows.kind == "time"].repeat.dropna()) == {10.0, 1.0}
+    # a column head with a range of sample counts: which value had how many is not on the page
+    ranged = rows_from_page(text.replace("(2023-11-15, n=10)", "(2023-11-15, n=7–10)"), BENCHMARKS, dates)
+    assert ranged[ranged.commit == "aaaaaaaa"].repeat.isna().all()
+    assert (ranged[ranged.commit == "bbbbbbbb"].repeat.dropna() > 0).all()

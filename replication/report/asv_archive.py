@@ -111,7 +111,9 @@ _UNITS = {"s": 1.0, "ms": 1e-3, "µs": 1e-6, "ns": 1e-9, "GiB": 2.0**30, "MiB": 
 _CELL = re.compile(
     r"^(?P<number>-?[0-9][0-9,]*(?:\.[0-9]+)?(?:e[+-]?[0-9]+)?)(?: (?P<suffix>\S+))?(?P<rest>.*)$"
 )
-_HEAD = re.compile(r"^`(?P<commit>[0-9a-f]+)` \((?P<date>[0-9-]+)(?:, n=(?P<n>[0-9]+)(?:–[0-9]+)?)?\)$")
+_HEAD = re.compile(
+    r"^`(?P<commit>[0-9a-f]+)` \((?P<date>[0-9-]+)(?:, n=(?P<n>[0-9]+)(?P<range>–[0-9]+)?)?\)$"
+)
 
 
 def _cell(text: str, unit: str) -> dict | None:
@@ -121,6 +123,9 @@ def _cell(text: str, unit: str) -> dict | None:
         return None
     if text in ("n/a", "failed"):
         return {"status": "skipped" if text == "n/a" else "failed", "value": math.nan}
+    if unit not in ("seconds", "bytes"):  # a tracked value: the number and its unit, as typed
+        number = text[: -len(unit) - 1] if unit and text.endswith(f" {unit}") else text
+        return {"status": "ok", "value": float(number.replace(",", ""))}
     match = _CELL.match(text)
     if match is None:
         raise ValueError(f"cannot read the value {text!r}")
@@ -160,7 +165,7 @@ def rows_from_page(text: str, benchmarks: dict[str, dict], dates: dict[str, pd.T
     Only the measured history is read (not single-sample runs, nor the comparison, whose
     values repeat the history's). The values carry what the page shows: three significant
     digits, a spread rounded to 1 % (0.1 % below 1 %) as quartiles around the value, and the
-    column's sample count.
+    column's sample count where the page gave one count (not a range) for the column.
     """
     rows: list[dict] = []
     machine = None
@@ -192,7 +197,9 @@ def rows_from_page(text: str, benchmarks: dict[str, dict], dates: dict[str, pd.T
                     if fields is None:
                         continue
                     commit = h["commit"]
-                    repeat = float(h["n"]) if h["n"] and info.get("type") == "time" else math.nan
+                    # "n=7–10": the page did not say which value had how many samples
+                    known = h["n"] and not h["range"] and info.get("type") == "time"
+                    repeat = float(h["n"]) if known else math.nan
                     rows.append({
                         "machine": machine, "commit": commit, "date": dates[commit], "env": "",
                         "benchmark": name, "kind": info.get("type", ""), "params": params,

@@ -261,8 +261,9 @@ def render_performance(
         names = ", ".join(f"`{c}`" for c in recovered)
         lines += [
             f"The values of {names} were recovered from an earlier version of this page, whose asv "
-            "files were not kept: three significant digits and a rounded spread, without samples, so "
-            "no comparison can test them.",
+            "files were not kept: three significant digits, a rounded spread and the column's sample "
+            "count where it gave one count (not a range), without samples, so no comparison can test "
+            "them.",
             "",
         ]
     if frame.empty:
