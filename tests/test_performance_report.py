@@ -277,6 +277,9 @@ def test_the_page_keeps_its_history_without_asvs_files(history, tmp_path):
     measured = _section(text, "## Machine `m1`")
     assert all(f"`{c}` (" in measured for c in ("aaaaaaaa", "bbbbbbbb", "dddddddd"))
     assert "## Comparison `bbbbbbbb` → `dddddddd`" in text
+    comparison = _section(text, "## Comparison `bbbbbbbb` → `dddddddd`")
+    assert "(3 values measured at only one of the two, not compared)" in comparison  # d ran one benchmark
+    assert "`b.time_plain`" not in comparison and "| n/a |" not in comparison
     assert "| 1 ms ±10 % | 3 ms (no spread recorded) |" in measured  # b.time_plain: not measured at d
     # asv holding a value again replaces the archived one, never doubles it
     again = write_results(tmp_path / "again", [("dddddddd44", 4, {"b.T.time_adt": timing([1e-4, 4e-3])})])

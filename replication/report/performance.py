@@ -141,17 +141,23 @@ def _comparison(frame: pd.DataFrame, base: str, head: str, machine: str, factor:
     after = _latest(frame[frame["commit"] == head]).set_index(["benchmark", "params"])
     rows, counts = [], dict.fromkeys(VERDICTS, 0)
     grid = {**after["param_index"].to_dict(), **before["param_index"].to_dict()}
+    one_sided = 0  # measured at one commit only (a benchmark added, or a run of a subset)
     for key in sorted(grid, key=lambda k: (k[0], grid[k])):
-        b = before.loc[key].to_dict() if key in before.index else {"status": "missing"}
-        a = after.loc[key].to_dict() if key in after.index else {"status": "missing"}
+        if key not in before.index or key not in after.index:
+            one_sided += 1
+            continue
+        b, a = before.loc[key].to_dict(), after.loc[key].to_dict()
         v = verdict(b, a, factor=factor)
         counts[v.word] += 1
         ratio = "–" if v.ratio != v.ratio else f"{v.ratio:.2f}"
-        cells = [format_cell(x) if x["status"] != "missing" else "–" for x in (b, a)]
+        cells = [format_cell(b), format_cell(a)]
         row = [f"`{key[0]}`", key[1] or "–", *cells, ratio, v.word, _test_text(v)]
         rows.append((VERDICTS.index(v.word), row))
     rows.sort(key=lambda r: r[0])
-    summary = ", ".join(f"{n} {word}" for word, n in counts.items() if n)
+    summary = ", ".join(f"{n} {word}" for word, n in counts.items() if n) or "none"
+    if one_sided:
+        plural = "s" if one_sided > 1 else ""
+        summary += f" ({one_sided} value{plural} measured at only one of the two, not compared)"
     return [
         f"## Comparison `{base}` → `{head}` (machine `{machine}`)",
         "",
