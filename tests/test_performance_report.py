@@ -349,3 +349,78 @@ def test_a_pages_history_is_recovered_as_it_was_shown(history, tmp_path):
     ranged = rows_from_page(text.replace("(2023-11-15, n=10)", "(2023-11-15, n=7–10)"), BENCHMARKS, dates)
     assert ranged[ranged.commit == "aaaaaaaa"].repeat.isna().all()
     assert (ranged[ranged.commit == "bbbbbbbb"].repeat.dropna() > 0).all()
+
+
+def test_goal_verdicts_need_the_whole_spread_on_one_side():
+    from replication.report.speed_goals import Goal, goal_verdict
+
+    under = Goal("t", "b", goal="<= 1 ms", limit=1e-3)
+    timing_row = {"kind": "time", "value": 0.9e-3, "q_25": 0.8e-3, "q_75": 0.95e-3}
+    assert goal_verdict(timing_row, under) == "met"
+    assert goal_verdict({**timing_row, "q_75": 1.2e-3}, under) == "within the spread"  # median under
+    assert goal_verdict({**timing_row, "value": 1.1e-3, "q_25": 0.99e-3, "q_75": 1.2e-3}, under) == (
+        "within the spread"
+    )  # median over, lower quartile under
+    assert goal_verdict({**timing_row, "value": 1.2e-3, "q_25": 1.1e-3, "q_75": 1.3e-3}, under) == "not met"
+    assert (
+        goal_verdict({**timing_row, "value": 1e-3, "q_25": 1e-3, "q_75": 1e-3}, under) == "met"
+    )  # at the limit
+    nan = float("nan")
+    assert goal_verdict({**timing_row, "q_25": nan, "q_75": nan}, under) == "met"  # no spread: the value
+    ratio = Goal("r", "b", goal=">= 3x", limit=3.0, at_least=True)
+    assert goal_verdict({"kind": "track", "value": 3.5}, ratio) == "met"
+    assert goal_verdict({"kind": "track", "value": 2.9}, ratio) == "not met"
+    assert (
+        goal_verdict({"kind": "time", "value": 3.1, "q_25": 2.9, "q_75": 3.3}, ratio) == "within the spread"
+    )
+    assert goal_verdict({"kind": "track", "value": 1.0}, Goal("x", "b")) == ""  # no goal: shown for scale
+
+
+def test_goals_table_takes_each_value_from_the_newest_commit_that_has_it(history, tmp_path, monkeypatch):
+    from replication.report import speed_goals
+    from replication.report.performance import speed_table
+
+    monkeypatch.setattr(speed_goals, "GOALS", (
+        speed_goals.Goal("adt at 200", "b.T.time_adt", "n=200", "<= 1.5 ms", 1.5e-3),
+        speed_goals.Goal("plain", "b.time_plain", "", "<= 2 ms", 2e-3),
+        speed_goals.Goal("bytes", "b.track_bytes"),
+        speed_goals.Goal("gone", "b.time_gone", "", "<= 1 s", 1.0),
+    ))  # fmt: skip
+    out = tmp_path / "out"
+    render_performance(history, out)
+    newer = write_results(tmp_path / "new", [("dddddddd44", 4, {"b.T.time_adt": timing([1e-4, 1e-3])})])
+    text = render_performance(newer, out).read_text(encoding="utf-8")
+    lines = speed_table(out)
+    assert "machine `m1`" in lines[0]
+    rows = {line.split("|")[1].strip(): line for line in lines[-1].splitlines()[2:]}
+    assert "1 ms ±5 % at `dddddddd`" in rows["adt at 200"] and rows["adt at 200"].endswith("| met |")
+    # b.time_plain was not run at d: bbbbbbbb's value, which has no spread, decides alone
+    assert "3 ms (no spread recorded) at `bbbbbbbb`" in rows["plain"] and "| not met |" in rows["plain"]
+    assert "2,000 B at `bbbbbbbb`" in rows["bytes"]  # the quick run cccccccc never counts
+    assert "| not measured |" in rows["gone"]
+    assert "### Against the goals" in _section(text, "## Machine `m1`")
+
+
+def test_report_performance_fills_the_readmes_speed_block(history, tmp_path, capsys):
+    from replication.cli import main
+    from replication.report.index import END as HEAD_END
+    from replication.report.index import START as HEAD_START
+    from replication.report.speed_goals import END, START
+
+    readme = tmp_path / "README.md"
+    readme.write_text(
+        f"# x\r\n{HEAD_START}\r\nold\r\n{HEAD_END}\r\nmid\r\n{START}\r\nold speed\r\n{END}\r\nend\r\n"
+    )
+    out = tmp_path / "reports"
+    out.mkdir()
+    args = ["report", "--performance", "--asv-results", str(history), "--output-dir", str(out)]
+    assert main([*args, "--readme", str(readme)]) == 0
+    text = readme.read_bytes().decode()
+    block = text.split(START)[1].split(END)[0]
+    assert "old speed" not in block and "| task | asv benchmark | measured | goal | verdict |" in block
+    assert "\n" not in text.replace("\r\n", "") and text.endswith("end\r\n")  # CRLF kept
+    assert capsys.readouterr().out.count(f"wrote {readme}") == 1
+    # a README with the headline block only: --performance leaves it to the headline
+    readme.write_text(f"{HEAD_START}\nold\n{HEAD_END}\n")
+    assert main([*args, "--readme", str(readme)]) == 0
+    assert START not in readme.read_text() and "old" not in readme.read_text()

@@ -97,3 +97,21 @@ def test_the_readme_block_keeps_the_file_s_line_ends_and_its_link(tmp_path):
     assert link.is_symlink() and b"OLD-BLOCK-LINE" not in data
     assert data.count(b"\n") == data.count(b"\r\n") > 6
     assert data.startswith(b"# Title\r\n\r\n") and data.endswith(f"{END}\r\ntail\r\n".encode())
+
+
+def test_readme_speed_block_and_performance_page_match_the_asv_archive(tmp_path):
+    """The README's speed goals and reports/performance.md are drawn from the committed asv
+    archive (refresh both with ``replication report --performance`` after an asv run)."""
+    import shutil
+
+    from replication.report.asv_archive import ARCHIVE
+    from replication.report.performance import render_performance, speed_table
+    from replication.report.speed_goals import END, START
+
+    text = (ROOT / "README.md").read_text()
+    block = text.split(START, 1)[1].split(END, 1)[0].strip("\n").split("\n")
+    assert block == "\n".join(speed_table(ROOT / "reports")).split("\n")
+    (tmp_path / "data").mkdir()
+    shutil.copy(ROOT / "reports" / "data" / ARCHIVE, tmp_path / "data" / ARCHIVE)
+    page = render_performance(None, tmp_path).read_text(encoding="utf-8")
+    assert page == (ROOT / "reports" / "performance.md").read_text(encoding="utf-8")

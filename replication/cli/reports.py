@@ -122,6 +122,19 @@ def _check_readme(readme: str, out: Path) -> Path:
     return path
 
 
+def _fill_speed_block(readme: Path | None, out: Path) -> list[Path]:
+    """The README's speed block from the asv archive: ``--readme``, or a checkout's README."""
+    from replication.cli.outputs import checkout_readme
+    from replication.report.index import fill_block, has_block
+    from replication.report.performance import speed_table
+    from replication.report.speed_goals import END, START
+
+    target = readme if readme is not None else checkout_readme(out)
+    if target is None or not has_block(target, START, END):
+        return []
+    return [fill_block(target, START, END, speed_table(out))]
+
+
 def _cmd_report(args: argparse.Namespace) -> int:
     from replication.errors import ReportDataError
     from replication.io.paths import check_report_dir, lookup, same_file
@@ -147,6 +160,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
         if args.asv_results is None and not lookup(Path(results), ReportDataError, "--asv-results").exists:
             results = None
         written.append(render_performance(results, out, commits=args.commits))
+        written += _fill_speed_block(readme, out)
     if (out / "data" / "table1_provenance.json").is_file():
         written.append(_render(render_table1, "table1", out))
     if (out / "data" / "sph_provenance.json").is_file():
@@ -171,7 +185,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     written += finished
     if readme is not None and not any(same_file(readme, path) for path in finished):
         written.append(update_readme(readme, out))
-    for path in written:
+    for path in dict.fromkeys(written):  # a README filled twice (headline, speed) is named once
         print(f"wrote {path}")
     return 0
 

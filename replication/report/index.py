@@ -13,7 +13,7 @@ from replication.io.atomic import atomic_write_text
 from replication.report.casestudy_validation import validation_headline
 from replication.report.store import read_csv
 
-__all__ = ["REPORTS", "headline", "render_index", "update_readme"]
+__all__ = ["REPORTS", "fill_block", "has_block", "headline", "render_index", "update_readme"]
 
 START, END = "<!-- headline:start -->", "<!-- headline:end -->"
 
@@ -140,15 +140,33 @@ def update_readme(readme: str | os.PathLike[str], out_dir: str | os.PathLike[str
     The README keeps its line ends (CRLF stays CRLF) and, when it is a symbolic link, stays
     one: the file it points to is rewritten.
     """
+    return fill_block(readme, START, END, headline(out_dir))
+
+
+def has_block(readme: str | os.PathLike[str], start: str, end: str) -> bool:
+    """Whether ``readme`` holds a ``start ... end`` block (False when it cannot be read)."""
+    try:
+        text = Path(readme).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return False
+    return start in text and end in text and text.index(start) < text.index(end)
+
+
+def fill_block(readme: str | os.PathLike[str], start: str, end: str, lines: list[str]) -> Path:
+    """Replace the lines between the markers ``start`` and ``end`` of a README with ``lines``.
+
+    The README keeps its line ends (CRLF stays CRLF) and, when it is a symbolic link, stays
+    one: the file it points to is rewritten.
+    """
     path = Path(readme).resolve()  # a link's target, not the link replaced by a file
     with open(path, encoding="utf-8", newline="") as stream:  # newline="": \r\n read as written
         text = stream.read()
-    if START not in text or END not in text or text.index(END) < text.index(START):
-        raise CloudFileError(f"{path} has no {START} ... {END} block to fill")
-    before, rest = text.split(START, 1)
-    after = rest.split(END, 1)[1]
+    if start not in text or end not in text or text.index(end) < text.index(start):
+        raise CloudFileError(f"{path} has no {start} ... {end} block to fill")
+    before, rest = text.split(start, 1)
+    after = rest.split(end, 1)[1]
     newline = "\r\n" if "\r\n" in before + after else "\n"
-    block = newline.join([START, *headline(out_dir), END])
+    block = newline.join([start, *"\n".join(lines).split("\n"), end])
     atomic_write_text(path, before + block + after)
     return Path(readme)
 

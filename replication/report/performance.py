@@ -31,8 +31,9 @@ from replication.report.asv_archive import ARCHIVE, merge_results, read_archive,
 from replication.report.asv_compare import P_THRESHOLD, VERDICTS, verdict
 from replication.report.asv_results import load_asv_results, single_sample
 from replication.report.markdown import table
+from replication.report.speed_goals import speed_lines
 
-__all__ = ["FACTOR", "format_cell", "load_asv_results", "render_performance"]
+__all__ = ["FACTOR", "format_cell", "load_asv_results", "render_performance", "speed_table"]
 
 #: Ratio within which a comparison calls two values the same (asv's default ``--factor``).
 FACTOR = 1.1
@@ -279,6 +280,17 @@ def render_performance(
         order = _commits(by_machine)["commit"].tolist()
         measured = [c for c in order if c not in quick]
         lines += [f"## Machine `{machine}`", ""]
+        if measured:
+            lines += [
+                "### Against the goals",
+                "",
+                "Each goal's value at the newest measured commit that has it. A timing meets its goal "
+                "when its upper quartile does, misses it when its lower quartile does, and is *within "
+                "the spread* otherwise; ratios and peaks of memory are single values.",
+                "",
+                *speed_lines(by_machine, machine, measured),
+                "",
+            ]
         lines += _history(by_machine, measured[-commits:]) if measured else ["No measured commits.", ""]
         pair = _pick(measured, compare)
         if pair:
@@ -299,3 +311,34 @@ def render_performance(
     path = out / "performance.md"
     atomic_write_text(path, "\n".join(lines).rstrip("\n") + "\n")
     return path
+
+
+def speed_table(out_dir: str | os.PathLike[str]) -> list[str]:
+    """The goals table (:mod:`replication.report.speed_goals`) of the machine with the newest
+    measured commit, from the archive under ``out_dir``: the README's speed block.
+
+    Notes
+    -----
+    Performance tracking of the paper's pipelines; no section of the paper.
+    """
+    frame = read_archive(Path(out_dir) / "data" / ARCHIVE)
+    newest = None
+    for machine, by_machine in frame.groupby("machine", sort=True):
+        quick = _quick_commits(by_machine)
+        order = [c for c in _commits(by_machine)["commit"] if c not in quick]
+        if order:
+            date = by_machine.loc[by_machine["commit"] == order[-1], "date"].max()
+            if newest is None or date > newest[0]:
+                newest = (date, machine, by_machine, order)
+    if newest is None:
+        return ["No measured commits yet (see Performance tracking below)."]
+    _, machine, by_machine, order = newest
+    return [
+        f"asv's latest measurements on machine `{machine}`, drawn by `replication report --performance` "
+        "from [reports/data/performance_asv.csv](reports/data/performance_asv.csv); every value's "
+        "history and spread is in [reports/performance.md](reports/performance.md). A timing meets "
+        "its goal when its upper quartile does, misses it when its lower quartile does, and is "
+        "*within the spread* otherwise; the ratios are measured in one run.",
+        "",
+        *speed_lines(by_machine, machine, order),
+    ]
