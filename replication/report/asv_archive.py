@@ -95,7 +95,8 @@ def read_archive(path: str | os.PathLike[str]) -> pd.DataFrame:
 
 def merge_results(archive: pd.DataFrame | None, fresh: pd.DataFrame | None) -> pd.DataFrame:
     """The archive with asv's fresh values added; a fresh value replaces an archived one of
-    the same :data:`KEY`. Rows keep the archive's order, new ones follow."""
+    the same :data:`KEY`. Archived rows keep their order; fresh ones (replacements included)
+    follow in asv's order."""
     parts = []
     if archive is not None and not archive.empty:
         parts.append(archive.reindex(columns=list(ARCHIVE_COLUMNS)))
