@@ -241,12 +241,6 @@ def test_odd_asv_files_are_one_line_errors_naming_the_file(tmp_path, change, mat
         load_asv_results(results)
 
 
-def _without(text, title):
-    """The page without one section (the comparison: page-recovered values cannot be tested)."""
-    head, _, rest = text.partition(title)
-    return head + ("\n## " + rest.split("\n## ", 1)[1] if "\n## " in rest else "")
-
-
 def test_archive_round_trip_keeps_every_field(history, tmp_path):
     from pandas.testing import assert_frame_equal
 
@@ -299,7 +293,11 @@ def test_nothing_to_draw_from_is_one_line_error(tmp_path):
     ("change", "match"),
     [
         (lambda t: t.replace(",source\n", ",origin\n", 1), "missing column.*source"),
-        (lambda t: t.replace(",asv\n", ",elsewhere\n", 1), "unknown source 'elsewhere'"),
+        (lambda t: t.replace(",asv\n", ",elsewhere\n", 1), "line 2 has source 'elsewhere'"),
+        (
+            lambda t: t.replace(",ok,", ",fine,", 1),
+            "line [0-9]+ has status 'fine' .expected one of ok, failed, skipped",
+        ),
         (lambda t: t.replace("2023-11-", "yesterday-", 1), "not a readable performance archive"),
         (lambda t: t[: len(t) // 2], "cut short|fields"),
     ],
@@ -334,13 +332,19 @@ def test_a_pages_history_is_recovered_as_it_was_shown(history, tmp_path):
     (tmp_path / "page" / "data").mkdir(parents=True)
     write_archive(rows, tmp_path / "page" / "data" / "performance_asv.csv")
     again = render_performance(None, tmp_path / "page").read_text(encoding="utf-8")
-    assert "were recovered from an earlier version of this page" in again
-    title = "## Comparison `aaaaaaaa` → `bbbbbbbb` (machine `m1`)"
     assert (
-        _section(again, "## Machine `m1`").split(title)[0]
-        == _section(text, "## Machine `m1`").split(title)[0]
+        "Recovered from an earlier version of this page, whose asv files were not kept: all values of "
+        "`aaaaaaaa`, `bbbbbbbb`." in again
+    )
+    title = "## Comparison `aaaaaaaa` → `bbbbbbbb` (machine `m1`)"
+    recovered, shown = _section(again, "## Machine `m1`").split(title)[0].split("\n\n", 2)[1:]
+    assert (
+        recovered.startswith("Recovered from")
+        and shown == _section(text, "## Machine `m1`").split(title)[0][2:]
     )
     assert "| cannot tell |" in _section(again, title) and "| slower |" not in _section(again, title)
+    with pytest.raises(ValueError, match="cannot read the page: KeyError 'aaaaaaaa'"):
+        rows_from_page(text, BENCHMARKS, {})  # a commit without its date
     with pytest.raises(ValueError, match="b.gone is not in benchmarks.json"):
         rows_from_page(text.replace("b.time_plain", "b.gone"), BENCHMARKS, dates)
     assert isinstance(rows.date.iloc[0], pd.Timestamp)
@@ -424,3 +428,60 @@ def test_report_performance_fills_the_readmes_speed_block(history, tmp_path, cap
     readme.write_text(f"{HEAD_START}\nold\n{HEAD_END}\n")
     assert main([*args, "--readme", str(readme)]) == 0
     assert START not in readme.read_text() and "old" not in readme.read_text()
+
+
+def test_a_reading_that_says_less_or_is_older_never_replaces_an_archived_one(history, tmp_path):
+    """A stale .asv/results (an older reading), a --quick re-run or a failed re-run of a measured
+    commit must not erase its measurement from the archive, the only committed copy."""
+    out = tmp_path / "out"
+    render_performance(history, out)  # aaaaaaaa: b.time_plain 1 ms ±10 %, measured at t0
+
+    def rerun(name, row):
+        return write_results(tmp_path / name, [("aaaaaaaa11", 1, {"b.time_plain": row})])
+
+    older = timing([9e-3], quartiles=[(8e-3, 1e-2)])
+    older[3] -= 86_400_000  # started a day before the archived reading
+    quick = timing([7e-3], repeat=1, ci=[(-math.inf, math.inf)])
+    failed = [None, [], "v1", 1_700_000_000_000 + 5, 0.1]
+    for name, row in (("older", older), ("quick", quick), ("failed", failed)):
+        text = render_performance(rerun(name, row), out).read_text(encoding="utf-8")
+        assert "| – | 1 ms ±10 % | 3 ms (no spread recorded) |" in _section(text, "### `b.time_plain`"), name
+    newer = timing([2e-3], quartiles=[(1.9e-3, 2.1e-3)])
+    newer[3] += 86_400_000
+    text = render_performance(rerun("newer", newer), out).read_text(encoding="utf-8")
+    assert "| – | 2 ms ±5 % | 3 ms (no spread recorded) |" in _section(text, "### `b.time_plain`")
+
+
+def test_the_recovered_note_names_only_what_the_page_shows(history, tmp_path):
+    """A commit measured again by asv is not called recovered; one partly measured again is
+    named for the rest; commits outside the page's window are not named."""
+    from replication.report.asv_archive import rows_from_page, write_archive
+
+    text = render_performance(history, tmp_path / "out").read_text(encoding="utf-8")
+    frame = load_asv_results(history)
+    rows = rows_from_page(text, BENCHMARKS, dict(zip(frame.commit, frame.date)))
+    page = tmp_path / "page"
+    (page / "data").mkdir(parents=True)
+    write_archive(rows, page / "data" / "performance_asv.csv")
+    # asv measures bbbbbbbb's b.T.time_adt again: bbbbbbbb is now only partly recovered
+    again = write_results(tmp_path / "again", [("bbbbbbbb22", 2, {"b.T.time_adt": timing([1e-4, 2e-3])})])
+    text = render_performance(again, page).read_text(encoding="utf-8")
+    assert "all values of `aaaaaaaa` and the values of `bbbbbbbb` that asv has not measured again" in text
+    text = render_performance(None, page, commits=1, compare=("bbbbbbbb", "bbbbbbbb")).read_text(
+        encoding="utf-8"
+    )
+    assert "`aaaaaaaa`" not in text.split("### Against the goals")[0]  # outside the window of one commit
+
+
+def test_a_failed_newest_reading_shows_in_the_goals_table(history, tmp_path, monkeypatch):
+    from replication.report import speed_goals
+
+    monkeypatch.setattr(
+        speed_goals, "GOALS", (speed_goals.Goal("plain", "b.time_plain", "", "<= 2 ms", 2e-3),)
+    )
+    out = tmp_path / "out"
+    render_performance(history, out)
+    broke = write_results(tmp_path / "broke", [("dddddddd44", 4, {"b.time_plain": [None, [], "v1", 1, 0.1]})])
+    text = render_performance(broke, out).read_text(encoding="utf-8")
+    goals = text.split("### Against the goals", 1)[1].split("\n### ", 1)[0]
+    assert "| failed at `dddddddd` (2023-11-18) | <= 2 ms | failed |" in goals

@@ -49,7 +49,20 @@ def _samples_text(samples: object) -> str:
 
 
 def write_archive(frame: pd.DataFrame, path: str | os.PathLike[str]) -> int:
-    """Write the archive atomically (floats to full precision, samples space-separated)."""
+    """Write the archive atomically (floats to full precision, samples space-separated).
+
+    Parameters
+    ----------
+    frame : DataFrame
+        Columns :data:`ARCHIVE_COLUMNS` (as :func:`merge_results` returns them).
+    path : path
+        The CSV file.
+
+    Returns
+    -------
+    int
+        Bytes written.
+    """
     out = frame.reindex(columns=list(ARCHIVE_COLUMNS)).copy()
     out["samples"] = [_samples_text(s) for s in out["samples"]]
     for column in ("date", "started_at"):
@@ -86,17 +99,45 @@ def read_archive(path: str | os.PathLike[str]) -> pd.DataFrame:
             f"{path}: not a readable performance archive ({' '.join(str(exc).split())})"
         ) from exc
     if frame["date"].isna().any():
-        raise ReportDataError(f"{path}: a row has no commit date (the file is damaged)")
-    bad = sorted(set(frame["source"]) - {"asv", "page"})
-    if bad:
-        raise ReportDataError(f"{path}: unknown source {bad[0]!r} (expected 'asv' or 'page')")
+        line = int(frame.index[frame["date"].isna()][0]) + 2  # the header is line 1
+        raise ReportDataError(f"{path}: line {line} has no commit date (the file is damaged)")
+    for column, allowed in (("source", ("asv", "page")), ("status", ("ok", "failed", "skipped"))):
+        bad = frame.index[~frame[column].isin(allowed)]
+        if len(bad):
+            raise ReportDataError(
+                f"{path}: line {int(bad[0]) + 2} has {column} {frame.loc[bad[0], column]!r} "
+                f"(expected one of {', '.join(allowed)})"
+            )
     return frame.reindex(columns=list(ARCHIVE_COLUMNS))
 
 
+def _standing(frame: pd.DataFrame) -> pd.Series:
+    """How much a reading says: 2 a measurement (a timing of several samples, or any tracked
+    or memory value), 1 a single-sample timing (``asv run --quick``), 0 a failure or skip."""
+    ok = frame["status"] == "ok"
+    single = (frame["kind"] == "time") & (frame["repeat"] == 1)
+    return ok.astype(int) * 2 - (ok & single).astype(int)
+
+
 def merge_results(archive: pd.DataFrame | None, fresh: pd.DataFrame | None) -> pd.DataFrame:
-    """The archive with asv's fresh values added; a fresh value replaces an archived one of
-    the same :data:`KEY`. Archived rows keep their order; fresh ones (replacements included)
-    follow in asv's order."""
+    """The archive with asv's fresh values added, one reading per :data:`KEY`.
+
+    Parameters
+    ----------
+    archive : DataFrame or None
+        :func:`read_archive`'s table.
+    fresh : DataFrame or None
+        :func:`replication.report.asv_results.load_asv_results`'s table (``source`` asv).
+
+    Returns
+    -------
+    DataFrame
+        Columns :data:`ARCHIVE_COLUMNS`. Of two readings of one key the one that says more
+        is kept (a measurement over a single sample over a failure or skip: a quick or broken
+        re-run of a measured commit never erases its measurement); of two that say as much,
+        the later measured (``started_at``; a page-recovered value has none and is older),
+        and of those the fresh one. Rows are in the archive's order, new keys after.
+    """
     parts = []
     if archive is not None and not archive.empty:
         parts.append(archive.reindex(columns=list(ARCHIVE_COLUMNS)))
@@ -105,7 +146,15 @@ def merge_results(archive: pd.DataFrame | None, fresh: pd.DataFrame | None) -> p
     if not parts:
         return pd.DataFrame(columns=list(ARCHIVE_COLUMNS))
     merged = pd.concat(parts, ignore_index=True) if len(parts) > 1 else parts[0].reset_index(drop=True)
-    return merged.drop_duplicates(KEY, keep="last").reset_index(drop=True)
+    ranked = merged.assign(
+        _standing=_standing(merged),
+        _started=pd.to_datetime(merged["started_at"], utc=True).fillna(pd.Timestamp(0, tz="UTC")),
+        _order=range(len(merged)),
+        _place=merged.groupby(KEY, sort=False).ngroup(),  # keys numbered as they first appear
+    )
+    best = ranked.sort_values(["_standing", "_started", "_order"]).drop_duplicates(KEY, keep="last")
+    best = best.sort_values("_place").drop(columns=["_standing", "_started", "_order", "_place"])
+    return best.reset_index(drop=True)
 
 
 _UNITS = {"s": 1.0, "ms": 1e-3, "µs": 1e-6, "ns": 1e-9, "GiB": 2.0**30, "MiB": 2.0**20, "B": 1.0}
@@ -161,6 +210,17 @@ def rows_from_page(text: str, benchmarks: dict[str, dict], dates: dict[str, pd.T
     dates : dict
         The commit date of each commit the page names (by its 8-character hash).
 
+    Returns
+    -------
+    DataFrame
+        Columns :data:`ARCHIVE_COLUMNS`, ``source`` page.
+
+    Raises
+    ------
+    ValueError
+        A page this cannot read: a benchmark or parameters not in ``benchmarks``, a commit
+        without a date, a value or column head in another format, a table cut short.
+
     Notes
     -----
     Only the measured history is read (not single-sample runs, nor the comparison, whose
@@ -168,6 +228,13 @@ def rows_from_page(text: str, benchmarks: dict[str, dict], dates: dict[str, pd.T
     digits, a spread rounded to 1 % (0.1 % below 1 %) as quartiles around the value, and the
     column's sample count where the page gave one count (not a range) for the column.
     """
+    try:
+        return _page_rows(text, benchmarks, dates)
+    except (KeyError, IndexError) as exc:  # a commit without a date, a table cut short
+        raise ValueError(f"cannot read the page: {type(exc).__name__} {exc}") from exc
+
+
+def _page_rows(text: str, benchmarks: dict[str, dict], dates: dict[str, pd.Timestamp]) -> pd.DataFrame:
     rows: list[dict] = []
     machine = None
     lines = text.splitlines()

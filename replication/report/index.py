@@ -144,7 +144,19 @@ def update_readme(readme: str | os.PathLike[str], out_dir: str | os.PathLike[str
 
 
 def has_block(readme: str | os.PathLike[str], start: str, end: str) -> bool:
-    """Whether ``readme`` holds a ``start ... end`` block (False when it cannot be read)."""
+    """Whether ``readme`` holds a ``start ... end`` block.
+
+    Parameters
+    ----------
+    readme : path
+    start, end : str
+        The block's marker lines.
+
+    Returns
+    -------
+    bool
+        False also when the file cannot be read as UTF-8 text.
+    """
     try:
         text = Path(readme).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError):
@@ -157,6 +169,24 @@ def fill_block(readme: str | os.PathLike[str], start: str, end: str, lines: list
 
     The README keeps its line ends (CRLF stays CRLF) and, when it is a symbolic link, stays
     one: the file it points to is rewritten.
+
+    Parameters
+    ----------
+    readme : path
+    start, end : str
+        The block's marker lines.
+    lines : list of str
+        The block's new content (an item may hold several lines).
+
+    Returns
+    -------
+    Path
+        ``readme``.
+
+    Raises
+    ------
+    CloudFileError
+        When the README has no such block.
     """
     path = Path(readme).resolve()  # a link's target, not the link replaced by a file
     with open(path, encoding="utf-8", newline="") as stream:  # newline="": \r\n read as written

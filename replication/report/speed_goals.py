@@ -18,7 +18,7 @@ import pandas as pd
 
 from replication.report.markdown import table
 
-__all__ = ["END", "GOALS", "START", "Goal", "goal_verdict", "speed_lines"]
+__all__ = ["END", "GOALS", "START", "Goal", "goal_rows", "goal_verdict", "speed_lines"]
 
 START, END = "<!-- speed:start -->", "<!-- speed:end -->"
 
@@ -63,7 +63,21 @@ GOALS = (
 
 
 def goal_verdict(row: pd.Series | dict, goal: Goal) -> str:
-    """``met``, ``not met`` or ``within the spread`` (a timing whose quartiles straddle the limit)."""
+    """Whether a reading meets its goal.
+
+    Parameters
+    ----------
+    row : Series or dict
+        An ``ok`` reading of the archive: ``value``, ``kind`` and, for a timing, ``q_25``
+        and ``q_75``.
+    goal : Goal
+
+    Returns
+    -------
+    str
+        ``met``, ``not met``, ``within the spread`` (a timing whose quartiles straddle the
+        limit), or ``""`` for a row without a limit.
+    """
     if goal.limit is None:
         return ""
     value = float(row["value"])
@@ -82,24 +96,57 @@ def goal_verdict(row: pd.Series | dict, goal: Goal) -> str:
     return "within the spread"
 
 
-def speed_lines(frame: pd.DataFrame, machine: str, measured: list[str]) -> list[str]:
-    """The goals table for ``machine``: each goal's value at the newest of ``measured``
-    (commits, oldest first) that has it."""
+def goal_rows(frame: pd.DataFrame, measured: list[str]) -> list[tuple[Goal, pd.Series | None]]:
+    """Each goal of :data:`GOALS` with its reading: the newest of the ``measured`` commits
+    (oldest first) that ran the benchmark, ok or failed (a skip is no reading), or None.
+
+    Parameters
+    ----------
+    frame : DataFrame
+        One machine's rows of the asv archive (:mod:`replication.report.asv_archive`).
+    measured : list of str
+        The machine's measured commits, oldest first (single-sample runs left out).
+
+    Returns
+    -------
+    list of (Goal, Series or None)
+    """
+    rank = {c: k for k, c in enumerate(measured)}
+    ran = frame[frame["status"].isin(("ok", "failed")) & frame["commit"].isin(rank)]
+    ran = ran.assign(_rank=ran["commit"].map(rank)).sort_values(["_rank", "started_at"], na_position="first")
+    found = []
+    for goal in GOALS:
+        rows = ran[(ran["benchmark"] == goal.benchmark) & (ran["params"] == goal.params)]
+        found.append((goal, rows.iloc[-1] if not rows.empty else None))
+    return found
+
+
+def speed_lines(frame: pd.DataFrame, measured: list[str]) -> list[str]:
+    """The goals table (markdown) of one machine's rows: see :func:`goal_rows`.
+
+    Parameters
+    ----------
+    frame : DataFrame
+        One machine's rows of the asv archive.
+    measured : list of str
+        Its measured commits, oldest first.
+
+    Returns
+    -------
+    list of str
+        The table's lines; a failed newest reading shows as failed, not an older value.
+    """
     from replication.report.performance import format_cell
 
-    rank = {c: k for k, c in enumerate(measured)}
-    ok = frame[(frame["machine"] == machine) & (frame["status"] == "ok") & frame["commit"].isin(rank)]
-    ok = ok.assign(rank=ok["commit"].map(rank)).sort_values(["rank", "started_at"], na_position="first")
     rows = []
-    for goal in GOALS:
-        found = ok[(ok["benchmark"] == goal.benchmark) & (ok["params"] == goal.params)]
-        if found.empty:
-            rows.append([goal.task, f"`{_short(goal.benchmark)}`", "not measured", goal.goal or "–", ""])
+    for goal, row in goal_rows(frame, measured):
+        name = f"`{_short(goal.benchmark)}`"
+        if row is None:
+            rows.append([goal.task, name, "not measured", goal.goal or "–", ""])
             continue
-        row = found.iloc[-1]
         measured_at = f"{format_cell(row)} at `{row['commit']}` ({row['date']:%Y-%m-%d})"
-        rows.append([goal.task, f"`{_short(goal.benchmark)}`", measured_at, goal.goal or "–",
-                     goal_verdict(row, goal)])  # fmt: skip
+        verdict = goal_verdict(row, goal) if row["status"] == "ok" else ("failed" if goal.limit else "")
+        rows.append([goal.task, name, measured_at, goal.goal or "–", verdict])
     return [table(rows, ["task", "asv benchmark", "measured", "goal", "verdict"], "llrll")]
 
 
