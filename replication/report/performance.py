@@ -22,7 +22,6 @@ so that the page cannot fool its reader:
 
 from __future__ import annotations
 
-import math
 import os
 from pathlib import Path
 
@@ -31,6 +30,7 @@ import pandas as pd
 from replication.errors import CloudFileError
 from replication.io.atomic import atomic_write_text
 from replication.report.asv_archive import ARCHIVE, merge_results, read_archive, write_archive
+from replication.report.asv_cells import format_cell
 from replication.report.asv_compare import P_THRESHOLD, VERDICTS, verdict
 from replication.report.asv_results import load_asv_results, single_sample
 from replication.report.markdown import table
@@ -40,45 +40,6 @@ __all__ = ["FACTOR", "format_cell", "load_asv_results", "render_performance", "s
 
 #: Ratio within which a comparison calls two values the same (asv's default ``--factor``).
 FACTOR = 1.1
-
-
-def _format(value: float, unit: str) -> str:
-    if unit == "seconds":
-        for scale, suffix in ((1.0, "s"), (1e-3, "ms"), (1e-6, "µs")):
-            if value >= scale:
-                return f"{value / scale:.3g} {suffix}"
-        return f"{value * 1e9:.3g} ns"
-    if unit == "bytes":
-        for scale, suffix in ((2**30, "GiB"), (2**20, "MiB")):
-            if value >= scale:
-                return f"{value / scale:.3g} {suffix}"
-        return f"{value:,.0f} B"
-    if value == int(value) and abs(value) < 1e15:
-        return f"{value:,.0f} {unit}".strip()
-    return f"{value:.3g} {unit}".strip()
-
-
-def spread_percent(row: pd.Series | dict) -> float:
-    """Half the interquartile range of a timing's samples, in % of its median (NaN if unknown)."""
-    q25, q75, value = row["q_25"], row["q_75"], row["value"]
-    if any(not math.isfinite(x) for x in (q25, q75, value)) or value <= 0:
-        return math.nan
-    return 100 * (q75 - q25) / 2 / value
-
-
-def format_cell(row: pd.Series | dict) -> str:
-    """One value as the page shows it: ``1.23 ms ±4 %``, ``(1 sample)``, ``failed``, ``n/a``."""
-    if row["status"] != "ok":
-        return "failed" if row["status"] == "failed" else "n/a"
-    text = _format(float(row["value"]), row["unit"])
-    if row["kind"] != "time":
-        return text  # memory and tracked values: one measurement by design
-    if row["repeat"] == 1:
-        return f"{text} (1 sample)"
-    spread = spread_percent(row)
-    if spread != spread:
-        return f"{text} (no spread recorded)"
-    return f"{text} ±{spread:.1f} %" if spread < 0.95 else f"{text} ±{spread:.0f} %"
 
 
 def _samples_note(group: pd.DataFrame) -> str:

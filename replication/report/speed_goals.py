@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import pandas as pd
 
+from replication.report.asv_cells import format_cell
 from replication.report.markdown import table
 
 __all__ = ["END", "GOALS", "START", "Goal", "goal_rows", "goal_verdict", "speed_lines"]
@@ -136,8 +137,6 @@ def speed_lines(frame: pd.DataFrame, measured: list[str]) -> list[str]:
     list of str
         The table's lines; a failed newest reading shows as failed, not an older value.
     """
-    from replication.report.performance import format_cell
-
     rows = []
     for goal, row in goal_rows(frame, measured):
         name = f"`{_short(goal.benchmark)}`"
