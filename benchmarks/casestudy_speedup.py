@@ -135,6 +135,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", choices=list(CONFIGS), action="append", help="configurations to run")
     parser.add_argument("--json", metavar="FILE", help="write the raw runs as JSON")
     args = parser.parse_args(argv)
+    from benchmarks.common import warn_if_stale_kernels
+
+    warn_if_stale_kernels()
     settings = ["--quick"] if args.quick else []
     names = args.only or list(CONFIGS)
     if names[0] != next(iter(CONFIGS)):

@@ -36,3 +36,21 @@ def quiet():
     from replication.errors import DuplicatePointsWarning
 
     warnings.simplefilter("ignore", DuplicatePointsWarning)
+
+
+def warn_if_stale_kernels():
+    """Say on stderr when this checkout's ahead-of-time kernels are stale (side-by-side scripts).
+
+    A stale module is refused, so commands fall back to numba and pay its start-up (about 1 s
+    per process): timings of commands would not be those of an installed release.
+    """
+    import sys
+
+    from replication import _aot
+
+    if _aot.stale():
+        print(
+            "warning: the ahead-of-time kernels were built from other sources and are not used; "
+            "rebuild them first: python -m replication._aotbuild",
+            file=sys.stderr,
+        )

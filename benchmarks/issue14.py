@@ -71,6 +71,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=7, help="timed pairs per row (default 7)")
     parser.add_argument("--quick", action="store_true", help="skip the 1e7-point rows")
     args = parser.parse_args(argv)
+    from benchmarks.common import warn_if_stale_kernels
+
+    warn_if_stale_kernels()
 
     import os
     import warnings

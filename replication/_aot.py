@@ -36,6 +36,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import importlib
+import importlib.util
 import os
 import sys
 from collections.abc import Callable
@@ -54,6 +55,7 @@ __all__ = [
     "load_numba",
     "numba_signature",
     "source_digest",
+    "stale",
 ]
 
 #: Name of the extension module that the build compiles.
@@ -236,6 +238,22 @@ def compiled() -> ModuleType | None:
     if module.source_digest() != source_digest():
         return None  # built from other sources: an edited checkout
     return module
+
+
+def stale() -> bool:
+    """Whether an ahead-of-time module is installed but refused as built from other sources.
+
+    Returns
+    -------
+    bool
+        True in a checkout whose kernel sources were edited (even an edit since undone)
+        after the module was built: every call then runs numba's kernels, correct but with
+        numba's start-up; ``python -m replication._aotbuild`` builds it again. False when it
+        is current, absent or disabled (``REPLICATION_AOT=0``).
+    """
+    if os.environ.get("REPLICATION_AOT", "1").strip() == "0" or compiled() is not None:
+        return False
+    return importlib.util.find_spec(MODULE) is not None
 
 
 def kernel(name: str) -> Callable:

@@ -404,3 +404,21 @@ def test_small_clouds_call_the_compiled_kernels_with_their_own_types(monkeypatch
     interpolate.interpolate_linear(uv, triangle, values, [[0.2, 0.2], [5, 5]], nearest_outside=True)
     interpolate.interpolate_linear(uv, triangle, values, [[0.2, 0.2]], convex=False)
     assert set(used) == set(_aot.KERNELS) - {"single", "column_spreads"}
+
+
+def test_a_module_built_from_other_sources_is_stale(monkeypatch):
+    """stale() tells a measurer that commands run numba's kernels because the compiled module
+    is refused (an edited checkout), and only then."""
+    import importlib.util
+
+    monkeypatch.delenv("REPLICATION_AOT", raising=False)
+    monkeypatch.setattr(_aot, "compiled", lambda: None)
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name: object() if name == _aot.MODULE else None)
+    assert _aot.stale()
+    monkeypatch.setenv("REPLICATION_AOT", "0")
+    assert not _aot.stale()  # disabled on purpose
+    monkeypatch.delenv("REPLICATION_AOT")
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name: None)
+    assert not _aot.stale()  # not built at all (no C compiler): nothing to rebuild
+    monkeypatch.setattr(_aot, "compiled", lambda: object())
+    assert not _aot.stale()
