@@ -16,9 +16,9 @@ from replication.cli.outputs import DEFAULT_DIR, QUICK_DIR, TABLE1_SUBDIRS, fini
 from replication.cli.progress import progress_bar
 from replication.kernels import release_threads, warm_up
 
-#: The markdown files ``replication report`` may write.
 #: asv's results directory in a checkout (``results_dir`` of asv.conf.json).
 DEFAULT_ASV_RESULTS = ".asv/results"
+#: The markdown files ``replication report`` may write.
 RENDERED = ("table1.md", "sph.md", "casestudy.md", "performance.md", "index.md")
 
 

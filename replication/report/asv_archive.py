@@ -16,7 +16,6 @@ spread, and carry no samples or confidence interval, so no comparison can test t
 
 from __future__ import annotations
 
-import itertools
 import math
 import os
 import re
@@ -25,7 +24,8 @@ from pathlib import Path
 import pandas as pd
 
 from replication.errors import ReportDataError
-from replication.report.asv_results import COLUMNS, params_text
+from replication.report.asv_cells import BYTE_UNITS, TIME_UNITS
+from replication.report.asv_results import COLUMNS, param_grid, params_text
 from replication.report.store import read_csv, write_csv
 
 __all__ = [
@@ -157,7 +157,8 @@ def merge_results(archive: pd.DataFrame | None, fresh: pd.DataFrame | None) -> p
     return best.reset_index(drop=True)
 
 
-_UNITS = {"s": 1.0, "ms": 1e-3, "µs": 1e-6, "ns": 1e-9, "GiB": 2.0**30, "MiB": 2.0**20, "B": 1.0}
+# the suffixes format_cell writes, back to their scale
+_UNITS = {suffix: scale for scale, suffix in (*TIME_UNITS, (1e-9, "ns"), *BYTE_UNITS, (1.0, "B"))}
 _CELL = re.compile(
     r"^(?P<number>-?[0-9][0-9,]*(?:\.[0-9]+)?(?:e[+-]?[0-9]+)?)(?: (?P<suffix>\S+))?(?P<rest>.*)$"
 )
@@ -253,7 +254,8 @@ def _page_rows(text: str, benchmarks: dict[str, dict], dates: dict[str, pd.Times
             heads = [_HEAD.match(h) for h in head[1:]]
             if None in heads:
                 raise ValueError(f"cannot read the column heads of {name}: {head}")
-            grid = {_params(info, combo): j for j, combo in enumerate(_combos(info))}
+            names = info.get("param_names", [])
+            grid = {params_text(names, combo): j for j, combo in enumerate(param_grid(info.get("params")))}
             i += 4
             while i < len(lines) and lines[i].startswith("|"):
                 cells = [c.strip() for c in lines[i].strip("|").split("|")]
@@ -280,12 +282,3 @@ def _page_rows(text: str, benchmarks: dict[str, dict], dates: dict[str, pd.Times
             continue
         i += 1
     return pd.DataFrame(rows, columns=list(ARCHIVE_COLUMNS))
-
-
-def _combos(info: dict) -> list[tuple]:
-    params = info.get("params") or []
-    return list(itertools.product(*params)) if params else [()]
-
-
-def _params(info: dict, combo: tuple) -> str:
-    return params_text(info.get("param_names", []), combo)

@@ -10,17 +10,22 @@ import math
 
 import pandas as pd
 
-__all__ = ["format_cell", "spread_percent"]
+__all__ = ["BYTE_UNITS", "TIME_UNITS", "format_cell", "spread_percent"]
+
+#: The units a timing is shown in, largest first (below the last: ns).
+TIME_UNITS = ((1.0, "s"), (1e-3, "ms"), (1e-6, "µs"))
+#: The units a size is shown in, largest first (below the last: B).
+BYTE_UNITS = ((2.0**30, "GiB"), (2.0**20, "MiB"))
 
 
 def _format(value: float, unit: str) -> str:
     if unit == "seconds":
-        for scale, suffix in ((1.0, "s"), (1e-3, "ms"), (1e-6, "µs")):
+        for scale, suffix in TIME_UNITS:
             if value >= scale:
                 return f"{value / scale:.3g} {suffix}"
         return f"{value * 1e9:.3g} ns"
     if unit == "bytes":
-        for scale, suffix in ((2**30, "GiB"), (2**20, "MiB")):
+        for scale, suffix in BYTE_UNITS:
             if value >= scale:
                 return f"{value / scale:.3g} {suffix}"
         return f"{value:,.0f} B"

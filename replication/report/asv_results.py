@@ -29,7 +29,7 @@ import pandas as pd
 
 from replication.errors import CloudFileError, ReportDataError
 
-__all__ = ["COLUMNS", "load_asv_results", "params_text", "single_sample"]
+__all__ = ["COLUMNS", "load_asv_results", "param_grid", "params_text", "single_sample"]
 
 #: Columns of :func:`load_asv_results`.
 COLUMNS = [
@@ -69,6 +69,11 @@ def _number(value: object) -> float:
     return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else math.nan
 
 
+def param_grid(params: list[list] | None) -> list[tuple]:
+    """Every combination of a benchmark's parameter values, in asv's order (``[()]``: none)."""
+    return list(itertools.product(*params)) if params else [()]
+
+
 def params_text(names: list[str], combo: tuple) -> str:
     """A parameter combination as the page shows it: ``n=9, backend=sweephull``."""
     # asv stores parameter values as their reprs: 'sweephull' with quotes
@@ -91,7 +96,7 @@ def _rows(machine: str, data: dict, benchmarks: dict[str, dict]) -> list[dict]:
         info = benchmarks[name]
         entry = dict(zip(columns, record)) if isinstance(record, list) else {"result": record}
         params = entry.get("params") or info.get("params") or []
-        combos = list(itertools.product(*params)) if params else [()]
+        combos = param_grid(params)
         results = entry.get("result")
         if not isinstance(results, list):  # all failed: asv stores a single null
             results = [None] * len(combos)

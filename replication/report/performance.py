@@ -34,7 +34,7 @@ from replication.report.asv_cells import format_cell
 from replication.report.asv_compare import P_THRESHOLD, VERDICTS, verdict
 from replication.report.asv_results import load_asv_results, single_sample
 from replication.report.markdown import table
-from replication.report.speed_goals import goal_rows, speed_lines
+from replication.report.speed_goals import RULE, Goal, goal_rows, speed_lines
 
 __all__ = ["FACTOR", "format_cell", "load_asv_results", "render_performance", "speed_table"]
 
@@ -79,11 +79,13 @@ def _history(frame: pd.DataFrame, commits: list[str]) -> list[str]:
     return lines
 
 
-def _recovered_note(frame: pd.DataFrame, measured: list[str], shown: list[str]) -> list[str]:
+def _recovered_note(
+    frame: pd.DataFrame, shown: list[str], goals: list[tuple[Goal, pd.Series | None]]
+) -> list[str]:
     """Which of the values shown (the history and comparison of ``shown`` commits, the goals
-    table) were recovered from an earlier page rather than read from asv's files."""
+    table's readings ``goals``) were recovered from an earlier page rather than read from asv."""
     rows = [_latest(frame[frame["commit"].isin(shown)])]
-    rows += [row.to_frame().T for _, row in goal_rows(frame, measured) if row is not None]
+    rows += [row.to_frame().T for _, row in goals if row is not None]
     shown_rows = pd.concat(rows, ignore_index=True)
     if shown_rows.empty or not (shown_rows["source"] == "page").any():
         return []
@@ -113,6 +115,13 @@ def _quick_commits(frame: pd.DataFrame) -> set[str]:
     timed = frame[(frame["kind"] == "time") & (frame["status"] == "ok")]
     quick = single_sample(timed).groupby(timed["commit"]).all()
     return set(quick[quick].index)
+
+
+def _split_commits(frame: pd.DataFrame) -> tuple[list[str], set[str], list[str]]:
+    """One machine's commits oldest first, its quick ones, and the measured rest (in order)."""
+    quick = _quick_commits(frame)
+    order = _commits(frame)["commit"].tolist()
+    return order, quick, [c for c in order if c not in quick]
 
 
 def _pick(order: list[str], compare: tuple[str, str] | None) -> tuple[str, str] | None:
@@ -259,21 +268,19 @@ def render_performance(
     if frame.empty:
         lines += ["No benchmark results recorded yet.", ""]
     for machine, by_machine in frame.groupby("machine", sort=True):
-        quick = _quick_commits(by_machine)
-        order = _commits(by_machine)["commit"].tolist()
-        measured = [c for c in order if c not in quick]
+        order, quick, measured = _split_commits(by_machine)
         lines += [f"## Machine `{machine}`", ""]
         pair = _pick(measured, compare)
-        lines += _recovered_note(by_machine, measured, [*measured[-commits:], *(pair or ())])
+        goals = goal_rows(by_machine, measured)
+        lines += _recovered_note(by_machine, [*measured[-commits:], *(pair or ())], goals)
         if measured:
             lines += [
                 "### Against the goals",
                 "",
-                "Each goal's value at the newest measured commit that has it. A timing meets its goal "
-                "when its upper quartile does, misses it when its lower quartile does, and is *within "
-                "the spread* otherwise; ratios and peaks of memory are single values.",
+                f"Each goal's value at the newest measured commit that has it. {RULE}; ratios and "
+                "peaks of memory are single values.",
                 "",
-                *speed_lines(by_machine, measured),
+                *speed_lines(goals),
                 "",
             ]
         lines += _history(by_machine, measured[-commits:]) if measured else ["No measured commits.", ""]
@@ -323,8 +330,7 @@ def speed_table(out_dir: str | os.PathLike[str]) -> list[str]:
     frame = read_archive(Path(out_dir) / "data" / ARCHIVE)
     newest = None
     for machine, by_machine in frame.groupby("machine", sort=True):
-        quick = _quick_commits(by_machine)
-        order = [c for c in _commits(by_machine)["commit"] if c not in quick]
+        order = _split_commits(by_machine)[2]
         if order:
             date = by_machine.loc[by_machine["commit"] == order[-1], "date"].max()
             if newest is None or date > newest[0]:
@@ -335,9 +341,8 @@ def speed_table(out_dir: str | os.PathLike[str]) -> list[str]:
     return [
         f"asv's latest measurements on machine `{machine}`, drawn by `replication report --performance` "
         "from [reports/data/performance_asv.csv](reports/data/performance_asv.csv); every value's "
-        "history and spread is in [reports/performance.md](reports/performance.md). A timing meets "
-        "its goal when its upper quartile does, misses it when its lower quartile does, and is "
-        "*within the spread* otherwise; the ratios are measured in one run.",
+        f"history and spread is in [reports/performance.md](reports/performance.md). {RULE}; the "
+        "ratios are measured in one run.",
         "",
-        *speed_lines(by_machine, order),
+        *speed_lines(goal_rows(by_machine, order)),
     ]

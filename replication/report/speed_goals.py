@@ -19,9 +19,14 @@ import pandas as pd
 from replication.report.asv_cells import format_cell
 from replication.report.markdown import table
 
-__all__ = ["END", "GOALS", "START", "Goal", "goal_rows", "goal_verdict", "speed_lines"]
+__all__ = ["END", "GOALS", "RULE", "START", "Goal", "goal_rows", "goal_verdict", "speed_lines"]
 
 START, END = "<!-- speed:start -->", "<!-- speed:end -->"
+#: How a timing is judged against its goal (the page and the README say it in these words).
+RULE = (
+    "A timing meets its goal when its upper quartile does, misses it when its lower quartile does, "
+    "and is *within the spread* otherwise"
+)
 
 
 @dataclass(frozen=True)
@@ -122,15 +127,13 @@ def goal_rows(frame: pd.DataFrame, measured: list[str]) -> list[tuple[Goal, pd.S
     return found
 
 
-def speed_lines(frame: pd.DataFrame, measured: list[str]) -> list[str]:
-    """The goals table (markdown) of one machine's rows: see :func:`goal_rows`.
+def speed_lines(found: list[tuple[Goal, pd.Series | None]]) -> list[str]:
+    """The goals table (markdown) of :func:`goal_rows`'s readings.
 
     Parameters
     ----------
-    frame : DataFrame
-        One machine's rows of the asv archive.
-    measured : list of str
-        Its measured commits, oldest first.
+    found : list of (Goal, Series or None)
+        Each goal with its reading, as :func:`goal_rows` returns them.
 
     Returns
     -------
@@ -138,7 +141,7 @@ def speed_lines(frame: pd.DataFrame, measured: list[str]) -> list[str]:
         The table's lines; a failed newest reading shows as failed, not an older value.
     """
     rows = []
-    for goal, row in goal_rows(frame, measured):
+    for goal, row in found:
         name = f"`{_short(goal.benchmark)}`"
         if row is None:
             rows.append([goal.task, name, "not measured", goal.goal or "–", ""])
