@@ -485,3 +485,24 @@ def test_a_failed_newest_reading_shows_in_the_goals_table(history, tmp_path, mon
     text = render_performance(broke, out).read_text(encoding="utf-8")
     goals = text.split("### Against the goals", 1)[1].split("\n### ", 1)[0]
     assert "| failed at `dddddddd` (2023-11-18) | <= 2 ms | failed |" in goals
+
+
+def test_report_performance_writes_data_only_when_it_merges_asv_results(history, tmp_path, monkeypatch):
+    """data/ may sit on a read-only share: drawing the page from the archive alone writes
+    nothing there, so only a merge of asv's results asks for it to be writable."""
+    from replication.cli import main
+    from replication.io import paths
+
+    out = tmp_path / "reports"
+    out.mkdir()
+    checked = []
+    real = paths.check_report_dir
+    monkeypatch.setattr(
+        paths, "check_report_dir", lambda p, what, subdirs: checked.append(subdirs) or real(p, what, subdirs)
+    )
+    monkeypatch.chdir(tmp_path)  # no .asv/results here
+    assert main(["report", "--performance", "--asv-results", str(history), "--output-dir", str(out)]) == 0
+    archive = (out / "data" / "performance_asv.csv").read_bytes()
+    assert main(["report", "--performance", "--output-dir", str(out)]) == 0
+    assert checked == [("figures", "data"), ("figures",)]
+    assert (out / "data" / "performance_asv.csv").read_bytes() == archive

@@ -147,20 +147,21 @@ def _cmd_report(args: argparse.Namespace) -> int:
     if not found.is_dir:
         what = "is a file" if found.exists else "does not exist"
         raise ReportDataError(f"reports directory {out} {what}: run `replication reproduce` first")
-    # data/ is only read here (it may be on a read-only share), except by --performance, which
-    # merges asv's results into its archive there; figures/ is written
-    written_dirs = ("figures", "data") if args.performance else ("figures",)
+    results = None  # asv's default directory may be absent or empty (a fresh checkout): the archive alone
+    if args.performance:
+        results = args.asv_results or DEFAULT_ASV_RESULTS
+        described = Path(results) / "benchmarks.json"
+        if args.asv_results is None and not lookup(described, ReportDataError, "--asv-results").exists:
+            results = None
+    # data/ is only read here (it may be on a read-only share), except where --performance merges
+    # asv's results into its archive there; figures/ is written
+    written_dirs = ("figures", "data") if results is not None else ("figures",)
     check_report_dir(out, "--output-dir" if args.output_dir else "the reports directory", written_dirs)
     readme = _check_readme(args.readme, out) if args.readme else None
     written = []
     if args.performance:
         from replication.report.performance import render_performance
 
-        # asv's default directory may be absent or empty (a fresh checkout): the archive alone
-        results = args.asv_results or DEFAULT_ASV_RESULTS
-        described = Path(results) / "benchmarks.json"
-        if args.asv_results is None and not lookup(described, ReportDataError, "--asv-results").exists:
-            results = None
         written.append(render_performance(results, out, commits=args.commits))
         written += _fill_speed_block(readme, out)
     if (out / "data" / "table1_provenance.json").is_file():
