@@ -6,6 +6,7 @@ import pytest
 
 from replication.experiments.claims import (
     PAPER,
+    TIMING_DRIFT,
     TREND_MARGIN,
     combine,
     factor_verdict,
@@ -267,7 +268,7 @@ def test_speed_verdict_does_not_flip_with_timing_noise():
         size_ratio=(0.5, 0.45), time_ratio=(3.0, 2.5), similar=(1.0, 0.95), rms=(8.0, 4.0)
     )
     seen = {}
-    for true_ratio in (4.0, 2.2, 70.0, 1.02):
+    for true_ratio in (3.0, 2.6, 70.0, 0.8):
         verdicts = set()
         for seed in range(10):
             rng = np.random.default_rng(seed)
@@ -282,4 +283,39 @@ def test_speed_verdict_does_not_flip_with_timing_noise():
             verdicts.add(_verdicts(claims)["ADT is almost 3 times faster than NURBS"])
         assert len(verdicts) == 1, (true_ratio, verdicts)
         seen[true_ratio] = verdicts.pop()
-    assert seen == {4.0: "holds", 2.2: "holds", 70.0: "partly holds", 1.02: "does not hold"}
+    assert seen == {3.0: "holds", 2.6: "holds", 70.0: "partly holds", 0.8: "does not hold"}
+
+
+def test_a_speed_verdict_is_the_same_quiet_and_loaded():
+    """On one commit NURBS(fast)/ADT at n = 200 measured 5.05 quiet and 5.79 beside three
+    memory-bound processes: the load moves the whole distribution, and a run's interval
+    (about +-1 %) does not cover that. Near a band's edge the plain rule then flips."""
+    shift = 5.79 / 5.05
+    assert shift < TIMING_DRIFT
+    quiet = (4.2, (4.16, 4.24))
+    loaded = (4.2 * shift, (4.16 * shift, 4.24 * shift))
+    plain = [factor_verdict(r, 3.0, smaller_is_adt_better=False, interval=i) for r, i in (quiet, loaded)]
+    assert plain == ["holds", "partly holds"]  # the flip, without the drift
+    widened = {
+        factor_verdict(r, 3.0, smaller_is_adt_better=False, interval=i, drift=TIMING_DRIFT)
+        for r, i in (quiet, loaded)
+    }
+    assert widened == {"partly holds"}
+    # well inside the band a timing ratio still holds, and far below 1.1 it still does not
+    assert (
+        factor_verdict(3.0, 3.0, smaller_is_adt_better=False, interval=(2.9, 3.1), drift=TIMING_DRIFT)
+        == "holds"
+    )
+    assert factor_verdict(
+        0.8, 3.0, smaller_is_adt_better=False, interval=(0.78, 0.82), drift=TIMING_DRIFT
+    ) == ("does not hold")
+    # near "about equal" the drift leaves the direction undecided
+    assert factor_verdict(
+        1.05, 3.0, smaller_is_adt_better=False, interval=(1.04, 1.06), drift=TIMING_DRIFT
+    ) == ("cannot be decided")
+
+
+@pytest.mark.parametrize("drift", [0.9, 0.0, -1.0, float("nan")])
+def test_a_drift_below_one_is_refused(drift):
+    with pytest.raises(ValueError, match="drift must be a factor of at least 1"):
+        factor_verdict(3.0, 3.0, smaller_is_adt_better=False, drift=drift)
