@@ -318,3 +318,16 @@ def test_surface_must_suit_the_jet():
         jet_force(points, triangles, UNBOUNDED_FULL, resolution=0)
     with pytest.raises(InputError, match=r"resolution must be at most 256 .* got resolution=257"):
         jet_force(points, triangles, UNBOUNDED_FULL, resolution=257)
+
+
+def test_domain_errors_name_the_mesh_vertex_and_ignore_unused_ones():
+    # vertex 4 is the one outside (x = 40 mm past the 36 mm domain); vertex 3 is used by no triangle
+    points = [[1, 1, 1], [10, 1, 1], [1, 10, 1], [900, 900, 900], [40, 5, 1]]
+    with pytest.raises(
+        InputError, match=r"surface vertex 4 at \(40, 5, 1\) mm lies outside .*\(1 vertices outside\)"
+    ):
+        jet_force(points, [[0, 1, 2], [1, 4, 2]])
+    jet_force(points[:3] + [[900, 900, 900]], [[0, 1, 2]])  # the far vertex is in no triangle: no error
+    below = [[1, 1, 1], [10, 1, 1], [1, 10, 1], [5, -3, 1]]
+    with pytest.raises(InputError, match=r"vertex 3 has y = -3 mm"):
+        jet_force(below, [[0, 1, 2], [0, 3, 1]])

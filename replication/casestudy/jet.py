@@ -204,6 +204,12 @@ def jet_streamlets(config: JetConfig, resolution: int = DEFAULT_RESOLUTION) -> t
     return pos, mass
 
 
+@functools.cache
+def _default_config() -> JetConfig:
+    """The paper's jet, validated once (frozen: one instance serves every call)."""
+    return JetConfig()
+
+
 def _trace(
     points: np.ndarray,
     triangles: np.ndarray,
@@ -290,7 +296,7 @@ def jet_force(
     """
     from replication.surfaces import as_cloud
 
-    config = JetConfig() if config is None else config
+    config = _default_config() if config is None else config
     resolution = _check_resolution(resolution)
     pts = to_metres(as_cloud(points, name="surface points"))
     try:
@@ -325,7 +331,7 @@ def surface_force(
     -----
     Paper section 6: the fitness of a surface in the genetic algorithm.
     """
-    config = JetConfig() if config is None else config
+    config = _default_config() if config is None else config
     resolution = _check_resolution(resolution)
     if surface.depth_axis != 2:
         raise InputError(

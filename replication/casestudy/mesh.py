@@ -22,34 +22,46 @@ __all__ = ["check_domain", "check_height_field", "surface_signature", "weld"]
 
 def check_domain(points: np.ndarray, config: JetConfig, used: np.ndarray | None = None) -> None:
     """Raise when the surface (metres; the vertices ``used``) leaves the domain or crosses y = 0."""
-    index = np.arange(points.shape[0]) if used is None else used
-    points = points[index]
-    span = float(np.ptp(points, axis=0).max()) or 1.0
+    index = None if used is None else np.asarray(used)
+    if index is not None:
+        points = points[index]
+    # the bounds decide; the vertex to name is looked for only when they fail (the GA calls
+    # this once per evaluation: one min and one max, not a mask over every coordinate)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    span = float((hi - lo).max()) or 1.0
     tol = 1e-9 * span
-    if not config.full_jet and points[:, 1].min() < -tol:
+    if not config.full_jet and lo[1] < -tol:
         i = int(points[:, 1].argmin())
         raise InputError(
             f"the half jet needs the surface on the side y >= 0 of its symmetry plane, but vertex "
-            f"{index[i]} has y = {to_millimetres(points[i, 1]):.6g} mm; use the full jet for a surface on "
-            "both sides"
+            f"{_vertex(index, i)} has y = {to_millimetres(points[i, 1]):.6g} mm; use the full jet for a "
+            "surface on both sides"
         )
     if config.domain is None:
         return
     length, width, depth = config.domain
     lower = np.array([0.0, -width if config.full_jet else 0.0, 0.0]) - tol
     upper = np.array([length, width, depth]) + tol
+    if np.all(lo >= lower) and np.all(hi <= upper):
+        return
     outside = np.flatnonzero(((points < lower) | (points > upper)).any(axis=1))
-    if outside.size:
-        i = int(outside[0])
-        x, y, z = to_millimetres(points[i])
-        length_mm, width_mm, depth_mm = to_millimetres([length, width, depth])
-        y_lo = -width_mm if config.full_jet else 0.0
-        raise InputError(
-            f"surface vertex {index[i]} at ({x:.6g}, {y:.6g}, {z:.6g}) mm lies outside the domain "
-            f"x 0..{length_mm:g}, y {y_lo:g}..{width_mm:g}, z 0..{depth_mm:g} mm "
-            f"({outside.size} vertices outside); enlarge the domain or do without one (domain=None; "
-            "--no-domain on the command line)"
-        )
+    if not outside.size:  # bounds that are not numbers: the callers refuse those first
+        return
+    i = int(outside[0])
+    x, y, z = to_millimetres(points[i])
+    length_mm, width_mm, depth_mm = to_millimetres([length, width, depth])
+    y_lo = -width_mm if config.full_jet else 0.0
+    raise InputError(
+        f"surface vertex {_vertex(index, i)} at ({x:.6g}, {y:.6g}, {z:.6g}) mm lies outside the domain "
+        f"x 0..{length_mm:g}, y {y_lo:g}..{width_mm:g}, z 0..{depth_mm:g} mm "
+        f"({outside.size} vertices outside); enlarge the domain or do without one (domain=None; "
+        "--no-domain on the command line)"
+    )
+
+
+def _vertex(index: np.ndarray | None, i: int) -> int:
+    """The number of the i-th checked vertex in the caller's mesh."""
+    return i if index is None else int(index[i])
 
 
 def weld(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
