@@ -380,6 +380,36 @@ def test_goal_verdicts_need_the_whole_spread_on_one_side():
     assert goal_verdict({"kind": "track", "value": 1.0}, Goal("x", "b")) == ""  # no goal: shown for scale
 
 
+def test_a_ratio_goal_allows_for_the_drift_between_runs():
+    """fit_nurbs/adt() measured 1.59x and 1.48x, and 1e7/1e6 10.5x and 11.1x, by asv on commits
+    with the same code: the plain rule called each goal met in one run and not met in the other."""
+    from replication.experiments.claims import TIMING_DRIFT
+    from replication.report.speed_goals import GOALS, Goal, goal_verdict
+
+    under = Goal("r", "b", goal="<= 1.5x", limit=1.5, ratio=True)
+    plain = Goal("r", "b", goal="<= 1.5x", limit=1.5)
+    runs = [{"kind": "track", "value": v} for v in (1.59, 1.48)]
+    assert [goal_verdict(r, plain) for r in runs] == ["not met", "met"]
+    assert {goal_verdict(r, under) for r in runs} == {"within the spread"}
+    growth = Goal("g", "b", goal="<= 11x", limit=11.0, ratio=True)
+    assert {goal_verdict({"kind": "track", "value": v}, growth) for v in (10.5, 11.1)} == {
+        "within the spread"
+    }
+    # clear of the drift, a ratio is decided either way
+    assert goal_verdict({"kind": "track", "value": 1.5 / TIMING_DRIFT - 0.01}, under) == "met"
+    assert goal_verdict({"kind": "track", "value": 1.5 * TIMING_DRIFT + 0.01}, under) == "not met"
+    at_least = Goal("t", "b", goal=">= 3x", limit=3.0, at_least=True, ratio=True)
+    assert goal_verdict({"kind": "track", "value": 4.35}, at_least) == "met"
+    assert goal_verdict({"kind": "track", "value": 3.3}, at_least) == "within the spread"
+    assert goal_verdict({"kind": "track", "value": 2.4}, at_least) == "not met"
+    # the ratio goals of the table are marked, and no timing or memory goal is
+    assert {g.benchmark.rsplit(".", 1)[1] for g in GOALS if g.ratio} == {
+        "track_speedup_over_triangle",
+        "track_time_ratio_1e7_over_1e6",
+        "track_nurbs_fast_over_adt",
+    }
+
+
 def test_goals_table_takes_each_value_from_the_newest_commit_that_has_it(history, tmp_path, monkeypatch):
     from replication.report import speed_goals
     from replication.report.performance import speed_table

@@ -277,8 +277,8 @@ def render_performance(
             lines += [
                 "### Against the goals",
                 "",
-                f"Each goal's value at the newest measured commit that has it. {RULE}; ratios and "
-                "peaks of memory are single values.",
+                f"Each goal's value at the newest measured commit that has it. {RULE}; a peak of "
+                "memory is a single value.",
                 "",
                 *speed_lines(goals),
                 "",
@@ -341,8 +341,7 @@ def speed_table(out_dir: str | os.PathLike[str]) -> list[str]:
     return [
         f"asv's latest measurements on machine `{machine}`, drawn by `replication report --performance` "
         "from [reports/data/performance_asv.csv](reports/data/performance_asv.csv); every value's "
-        f"history and spread is in [reports/performance.md](reports/performance.md). {RULE}; the "
-        "ratios are measured in one run.",
+        f"history and spread is in [reports/performance.md](reports/performance.md). {RULE}.",
         "",
         *speed_lines(goal_rows(by_machine, order)),
     ]

@@ -3,8 +3,11 @@
 The table is drawn from the asv archive (:mod:`replication.report.asv_archive`): for each goal
 the newest measured commit that has the benchmark's value, with asv's spread, and a verdict that
 a loaded machine cannot fake. A timing meets its goal only when its upper quartile does, misses
-it only when its lower quartile does, and is *within the spread* otherwise; a tracked value
-(a ratio measured in one run, a peak of memory) is compared as it is. ``performance.md`` shows
+it only when its lower quartile does, and is *within the spread* otherwise. A ratio of two
+timings (median of a few alternated pairs in one run) has no spread of its own, but it drifts
+between runs (1.45-1.59x for ``fit_nurbs``/``adt()`` and 10.5-11.1x for 1e7/1e6 on unchanged
+code): it is given :data:`~replication.experiments.claims.TIMING_DRIFT` (x1.2) either way, as
+the speed claims of Table 1 are. A peak of memory is compared as it is. ``performance.md`` shows
 the table for each machine and ``replication report --performance`` writes it into a checkout's
 README between :data:`START` and :data:`END`.
 """
@@ -16,6 +19,7 @@ from dataclasses import dataclass
 
 import pandas as pd
 
+from replication.experiments.claims import TIMING_DRIFT
 from replication.report.asv_cells import format_cell
 from replication.report.markdown import table
 
@@ -25,7 +29,8 @@ START, END = "<!-- speed:start -->", "<!-- speed:end -->"
 #: How a timing is judged against its goal (the page and the README say it in these words).
 RULE = (
     "A timing meets its goal when its upper quartile does, misses it when its lower quartile does, "
-    "and is *within the spread* otherwise"
+    "and is *within the spread* otherwise; a ratio of two timings, measured in one run, is taken "
+    f"within x{TIMING_DRIFT:g} of its value either way, its drift between runs"
 )
 
 
@@ -34,7 +39,8 @@ class Goal:
     """One row: an asv benchmark value and the goal set for it (issues 14 and 15).
 
     ``limit`` is in the benchmark's unit (seconds, bytes, a ratio); ``at_least`` says that the
-    value must reach it rather than stay under it. A row without a limit is shown for scale.
+    value must reach it rather than stay under it; ``ratio`` marks a ratio of two timings
+    (judged with the drift between runs). A row without a limit is shown for scale.
     """
 
     task: str
@@ -43,6 +49,7 @@ class Goal:
     goal: str = ""
     limit: float | None = None
     at_least: bool = False
+    ratio: bool = False
 
 
 GOALS = (
@@ -50,16 +57,17 @@ GOALS = (
          "<= 0.1 ms", 1e-4),
     Goal("`adt()` in memory, 1e6 points", "benchmark_adt.ADTLarge.time_adt", "n=1000000"),
     Goal("Shewchuk's Triangle time over `adt()`'s, 1e6 points (one run)",
-         "benchmark_adt.ADTvsTriangle.track_speedup_over_triangle", "n=1000000", ">= 3x", 3.0, at_least=True),
+         "benchmark_adt.ADTvsTriangle.track_speedup_over_triangle", "n=1000000", ">= 3x", 3.0, at_least=True,
+         ratio=True),
     Goal("`adt()` 1e7 time over 1e6 time (one run)", "benchmark_adt.ADTGrowth.track_time_ratio_1e7_over_1e6",
-         "", "<= 11x", 11.0),
+         "", "<= 11x", 11.0, ratio=True),
     Goal("`adt()` and a binary `write_vtp`, 1e6 points", "benchmark_adt.ADTScale.time_adt_write_vtp",
          "n=1000000"),
     Goal("`adt()` peak memory of the process, 1e6 points", "benchmark_adt.ADTLarge.peakmem_adt", "n=1000000"),
     Goal("`adt()` peak memory of the process, 1e7 points", "benchmark_adt.ADTLarge.peakmem_adt", "n=10000000",
          "<= 1.5 GiB", 1.5 * 2**30),
     Goal("`fit_nurbs(evaluator=\"fast\")` time over `adt()`'s, 1e6 points (one run)",
-         "benchmark_nurbs.NURBSOverADT.track_nurbs_fast_over_adt", "", "<= 1.5x", 1.5),
+         "benchmark_nurbs.NURBSOverADT.track_nurbs_fast_over_adt", "", "<= 1.5x", 1.5, ratio=True),
     Goal("thin-sheet force `surface_force`, 101-point random surface",
          "benchmark_casestudy.JetForce.time_surface_force", "surface=random", "<= 1 ms", 1e-3),
     Goal("`replication --help`, fresh interpreter", "benchmark_startup.timeraw_help", "", "<= 0.3 s", 0.3),
@@ -82,7 +90,8 @@ def goal_verdict(row: pd.Series | dict, goal: Goal) -> str:
     -------
     str
         ``met``, ``not met``, ``within the spread`` (a timing whose quartiles straddle the
-        limit), or ``""`` for a row without a limit.
+        limit, or a ratio within x :data:`TIMING_DRIFT` of it), or ``""`` for a row without a
+        limit.
     """
     if goal.limit is None:
         return ""
@@ -90,6 +99,8 @@ def goal_verdict(row: pd.Series | dict, goal: Goal) -> str:
     low, high = float(row.get("q_25", math.nan)), float(row.get("q_75", math.nan))
     if row.get("kind") != "time" or not (math.isfinite(low) and math.isfinite(high)):
         low = high = value
+    if goal.ratio and row.get("kind") != "time":  # one run's ratio: its drift between runs
+        low, high = value / TIMING_DRIFT, value * TIMING_DRIFT
     if goal.at_least:
         low, high = -high, -low
         limit = -goal.limit
