@@ -17,7 +17,6 @@ from replication.experiments.claims import (
     FACTOR_TOLERANCE,
     MAJORITY,
     PAPER,
-    TIMING_DRIFT,
     Trend,
     combine,
     factor_verdict,
@@ -28,6 +27,7 @@ from replication.experiments.claims import (
 )
 from replication.experiments.paper import PaperValue
 from replication.experiments.storage import COORDINATES, EQUAL_PRECISION, FAMILIES
+from replication.experiments.timing import TIMING_DRIFT
 
 __all__ = ["STORAGE_HEADLINE", "table1_claims"]
 

@@ -20,7 +20,11 @@ from collections.abc import Callable, Mapping
 import numpy as np
 import pandas as pd
 
-__all__ = ["interleaved", "summarize", "ratio_per_repeat"]
+__all__ = ["TIMING_DRIFT", "interleaved", "summarize", "ratio_per_repeat"]
+
+#: How far (as a factor, either way) the machine's load moves a ratio of two timings between
+#: runs, beyond its interval within a run (see :mod:`replication.experiments.claims`).
+TIMING_DRIFT = 1.2
 
 
 def interleaved(tasks: Mapping[str, Callable[[], object]], *, repeats: int, warmup: int = 2) -> pd.DataFrame:

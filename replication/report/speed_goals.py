@@ -5,8 +5,8 @@ the newest measured commit that has the benchmark's value, with asv's spread, an
 a loaded machine cannot fake. A timing meets its goal only when its upper quartile does, misses
 it only when its lower quartile does, and is *within the spread* otherwise. A ratio of two
 timings (median of a few alternated pairs in one run) has no spread of its own, but it drifts
-between runs (1.45-1.59x for ``fit_nurbs``/``adt()`` and 10.5-11.1x for 1e7/1e6 on unchanged
-code): it is given :data:`~replication.experiments.claims.TIMING_DRIFT` (x1.2) either way, as
+between runs (asv read 1.48-1.59x for ``fit_nurbs``/``adt()`` and 10.5-11.1x for 1e7/1e6 on
+unchanged code): it is given :data:`~replication.experiments.timing.TIMING_DRIFT` (x1.2) either way, as
 the speed claims of Table 1 are. A peak of memory is compared as it is. ``performance.md`` shows
 the table for each machine and ``replication report --performance`` writes it into a checkout's
 README between :data:`START` and :data:`END`.
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import pandas as pd
 
-from replication.experiments.claims import TIMING_DRIFT
+from replication.experiments.timing import TIMING_DRIFT
 from replication.report.asv_cells import format_cell
 from replication.report.markdown import table
 
