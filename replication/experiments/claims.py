@@ -64,7 +64,7 @@ import numpy as np
 
 from replication.experiments.paper import PAPER_TABLE1
 from replication.experiments.storage import EQUAL_PRECISION
-from replication.experiments.timing import TIMING_DRIFT
+from replication.experiments.timing import TIMING_DRIFT, drifted
 
 __all__ = [
     "PAPER",
@@ -121,7 +121,7 @@ def factor_verdict(
     if not drift >= 1.0:  # also refuses NaN
         raise ValueError(f"drift must be a factor of at least 1, got {drift!r}")
     lo, hi = (ours, ours) if interval is None else interval
-    lo, hi = (lo / drift if lo > 0 else lo), hi * drift
+    lo, hi = drifted(lo, hi, drift)
     if not (np.isfinite(ours) and np.isfinite(lo) and np.isfinite(hi)) or min(ours, hi) <= 0:
         return "cannot be compared"
     # ADT's advantage: larger is better for ADT. An interval reaching down to 0 or below (a wide

@@ -20,11 +20,17 @@ from collections.abc import Callable, Mapping
 import numpy as np
 import pandas as pd
 
-__all__ = ["TIMING_DRIFT", "interleaved", "summarize", "ratio_per_repeat"]
+__all__ = ["TIMING_DRIFT", "drifted", "interleaved", "summarize", "ratio_per_repeat"]
 
 #: How far (as a factor, either way) the machine's load moves a ratio of two timings between
 #: runs, beyond its interval within a run (see :mod:`replication.experiments.claims`).
 TIMING_DRIFT = 1.2
+
+
+def drifted(low: float, high: float, drift: float = TIMING_DRIFT) -> tuple[float, float]:
+    """``(low / drift, high * drift)``: a ratio's range widened by the drift between runs; a
+    lower bound at or below 0 (a ratio known only to be below ``high``) stays as it is."""
+    return (low / drift if low > 0 else low), high * drift
 
 
 def interleaved(tasks: Mapping[str, Callable[[], object]], *, repeats: int, warmup: int = 2) -> pd.DataFrame:

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import pandas as pd
 
-from replication.experiments.timing import TIMING_DRIFT
+from replication.experiments.timing import TIMING_DRIFT, drifted
 from replication.report.asv_cells import format_cell
 from replication.report.markdown import table
 
@@ -100,7 +100,7 @@ def goal_verdict(row: pd.Series | dict, goal: Goal) -> str:
     if row.get("kind") != "time" or not (math.isfinite(low) and math.isfinite(high)):
         low = high = value
     if goal.ratio and row.get("kind") != "time":  # one run's ratio: its drift between runs
-        low, high = value / TIMING_DRIFT, value * TIMING_DRIFT
+        low, high = drifted(value, value)
     if goal.at_least:
         low, high = -high, -low
         limit = -goal.limit
