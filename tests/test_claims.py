@@ -110,6 +110,33 @@ def test_trend_verdict_known_trends(growth, verdict):
     assert trend.change_low <= trend.change <= trend.change_high
 
 
+def test_a_fitted_trend_that_the_medians_break_only_partly_holds():
+    # the paper's claims are monotone: growth overall, but a fall between two n by more than
+    # the margin, is not "grows with n"
+    rng = np.random.default_rng(5)
+    levels = {9: 1.0, 45: 1.2, 100: 1.6, 169: 1.3, 200: 2.0}  # falls from 100 to 169
+    n = np.repeat(NS, 200)
+    values = np.array([levels[k] for k in n]) * np.exp(0.02 * rng.standard_normal(n.size))
+    trend = trend_verdict(n, values, direction=+1)
+    assert trend.verdict == "partly holds"
+    assert trend.against == ((100.0, 169.0),)
+    assert "but the median falls from n = 100 to 169" in trend.describe((9, 200))
+    # the same values read as "shrinks" are refuted, whatever the steps
+    assert trend_verdict(n, values, direction=-1).verdict == "does not hold"
+    # a step against the trend within the margin (5 % of the median level) is noise
+    levels[169] = 1.6 - 0.04 * float(np.median(values))
+    values = np.array([levels[k] for k in n]) * np.exp(0.002 * rng.standard_normal(n.size))
+    steady = trend_verdict(n, values, direction=+1)
+    assert (steady.verdict, steady.against) == ("holds", ())
+    assert "but" not in steady.describe((9, 200))
+
+
+def test_a_steady_shrink_holds_and_names_no_step():
+    n, values = _clouds(10.0, -0.3, 0.02, np.random.default_rng(1))
+    trend = trend_verdict(n, values, direction=-1)
+    assert (trend.verdict, trend.against, trend.direction) == ("holds", (), -1)
+
+
 def test_theil_sen_matches_scipy_and_survives_ties():
     from scipy.stats import theilslopes
 

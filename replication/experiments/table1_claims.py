@@ -132,7 +132,7 @@ def _storage_rows(storage: pd.DataFrame, ns: tuple[int, ...]) -> list[_Row]:
             smaller = [n for n, v in by_n.items() if v in ("holds", "partly holds")]
             rows.append(_Row(
                 f"ADT needs almost half the storage of NURBS: {description}, {kind_text} coordinates "
-                f"(ADT/NURBS size, median at n = {large})",
+                f"(ADT/NURBS size, median at n = {large}; decided over n = {min(ns)}..{large})",
                 PAPER["size_ratio"], *per_n.get(large, (np.nan,) * 4)[:3], "ratio", verdicts[family, kind],
                 f"ADT/NURBS by n: {_by_n(ratios[family, kind], '.2f')}; about half (x1.5) at "
                 f"n = {_ns(half[family, kind])}; ADT more than 10 % smaller at n = {_ns(smaller)}",
@@ -240,7 +240,7 @@ def table1_claims(
         rows.append(_Row("NURBS minus ADT file size, 200 points", PAPER["size_difference_200"], med, q1, q3,
                          "bytes", "cannot be compared", WHY_ABSOLUTE))  # fmt: skip
         g, a = _mc(timings, 200, "nurbs_geomdl [s]"), _mc(timings, 200, "adt [s]")
-        label = "NURBS minus ADT computation time (geomdl), 200 points"
+        label = "NURBS minus ADT computation time (geomdl), 200 points (the Table 1 cloud's timings)"
         rows.append(_Row(label, PAPER["time_difference_200"], g[0] - a[0], np.nan, np.nan, "s",
                          "cannot be compared", WHY_ABSOLUTE))  # fmt: skip
 
@@ -255,7 +255,8 @@ def table1_claims(
         per_n = {n: _mc(timings, n, quantity) for n in ns}
         by_n = _factor_rows(per_n, PAPER["speed_ratio"].value, False, drift=TIMING_DRIFT)
         rows.append(_Row(
-            f"ADT is almost 3 times faster than NURBS ({label}; NURBS/ADT time, median at n = {large})",
+            f"ADT is almost 3 times faster than NURBS ({label}; NURBS/ADT time, median at n = {large}; "
+            f"decided over n = {small}..{large})",
             PAPER["speed_ratio"], *per_n[large][:3], "ratio", combine(list(by_n.values())),
             "NURBS/ADT time by n: " + ", ".join(f"{n}: {v[0]:.1f}" for n, v in per_n.items())
             + f"; 'almost 3' taken as within x{FACTOR_TOLERANCE:g} for the 95 % interval of the median, "
@@ -271,7 +272,7 @@ def table1_claims(
         medians = {n: _mc(montecarlo, n, quantity)[0] for n in ns}
         trend = _trend(montecarlo_raw, quantity, +1)
         rows.append(_Row(
-            f"the NURBS-ADT difference in {label} grows with n (median at n = {large})",
+            f"the NURBS-ADT difference in {label} grows with n (Monte Carlo median at n = {large})",
             None, medians[large], np.nan, np.nan, unit, trend.verdict,
             f"{trend.describe((small, large))}; Monte Carlo medians by n: "
             + ", ".join(f"{n}: {m:.4g}" for n, m in medians.items()),
@@ -284,7 +285,7 @@ def table1_claims(
         rms = {n: _mc(montecarlo, n, f"{prefix}rms_pct") for n in ns}
         rows.append(_Row(
             f"t-test and Wilcoxon find the surfaces 'similar' at 95 % (pairing at {pairing}; "
-            f"fraction of clouds at n = {large})",
+            f"fraction of clouds at n = {large}; decided over n = {small}..{large})",
             None, both[large], np.nan, np.nan, "fraction", share_verdict(both, lambda f: f >= MAJORITY),
             "fraction of clouds where neither test rejects, by n: "
             + _by_n(both, ".2f")
@@ -292,14 +293,14 @@ def table1_claims(
         ))  # fmt: skip
         rows.append(_Row(
             f"equivalent within 5 % of the depth range (TOST on the mean difference; pairing at {pairing}; "
-            f"fraction of clouds at n = {large})",
+            f"fraction of clouds at n = {large}; decided over n = {small}..{large})",
             None, equivalent[large], np.nan, np.nan, "fraction",
             share_verdict(equivalent, lambda f: f >= MAJORITY),
             "fraction of clouds shown equivalent, by n: " + _by_n(equivalent, ".2f"),
         ))  # fmt: skip
         rows.append(_Row(
             f"deviation under 5 % (RMS deviation as % of the depth range; pairing at {pairing}; "
-            f"median at n = {large})",
+            f"median at n = {large}; decided over n = {small}..{large})",
             PAPER["deviation_pct"], *rms[large][:3], "%",
             share_verdict({n: v[0] for n, v in rms.items()}, lambda r: r < PAPER["deviation_pct"].value),
             "median RMS deviation by n: " + _by_n({n: v[0] for n, v in rms.items()}, ".1f", " %")
