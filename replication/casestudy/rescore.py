@@ -1,7 +1,7 @@
 """The thin-sheet GA's best surfaces re-scored by SPH, the fitness of record (issue 11 item 3).
 
-The jet-model validation study found that the thin-sheet model ranks surfaces that turn the
-sheet back unlike SPH (Spearman about 0.1), so the GA's winners by the model are only
+The jet-model validation study found that the thin-sheet model overestimates rough, faceted
+surfaces (the GA's winners by about 1.4x) and ranks them unlike SPH, so the GA's winners by the model are only
 candidates: :func:`rescore_runs` takes the ``top`` best *distinct* surfaces of the final
 population of each run (:func:`top_distinct`: repeated elites and genomes whose ADT surfaces
 coincide count once) and scores them, with the flat plate and the Pelton-bucket

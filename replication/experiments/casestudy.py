@@ -217,8 +217,9 @@ def _claims(
         {"claim": "evaluations (simulations) in total", "paper": paper["simulations"],
          "ours": float(total_evals), "verdict": "cannot be compared",
          "why": f"{config.runs} runs x {config.population} x {config.generations} individuals; ours "
-                "counts distinct genomes only (the cache skips repeats), the paper's "
-                f"{paper['simulations']} appear to be per run"},
+                "counts distinct genomes only (the cache skips repeats); the paper's "
+                f"{paper['simulations']} are 48 x 50, one run's count, though it calls them 'run in "
+                "total for the entire operation'"},
         {"claim": "seconds per evaluation", "paper": paper["seconds_per_simulation"],
          "ours": per_eval, "verdict": "cannot be compared",
          "why": "SPH on a GPU against a thin-sheet model on a CPU: the model replaces the simulation, "

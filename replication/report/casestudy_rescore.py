@@ -114,10 +114,11 @@ def rescore_section(out: Path) -> str:
                "SPH std [N]", "simulation", "from cache"]  # fmt: skip
     return f"""## The GA's best surfaces re-scored by SPH
 
-The jet-model validation found that the thin-sheet model ranks surfaces that turn the sheet
-back unlike SPH, so SPH is the fitness of record: the best distinct surfaces of each run's final
-population by the thin-sheet fitness (repeated elites and coinciding surfaces counted once) were
-simulated, with the flat plate and the bucket as references at the same settings ({_settings_line(prov)}).
+The jet-model validation found that the thin-sheet model overestimates rough, faceted surfaces
+such as the GA's winners and ranks them unlike SPH, so SPH is the fitness of record: the best
+distinct surfaces of each run's final population by the thin-sheet fitness (repeated elites and
+coinciding surfaces counted once) were simulated, with the flat plate and the bucket as
+references at the same settings ({_settings_line(prov)}).
 SPH forces are quasi-steady means of the half jet (data: `data/casestudy_rescore.csv`); a
 surface equal to an earlier one ("= ...") was simulated once.
 

@@ -112,8 +112,18 @@ def validation_headline(out_dir: str | Path) -> list[str]:
         )
     return [
         f"- **Jet model checked against SPH** ({v['n']} surfaces): the thin-sheet model ranks surfaces like "
-        f"SPH with Spearman {v['spearman']:.2f} [{v['low']:.2f}, {v['high']:.2f}]{optimum}{surrogate}."
+        f"SPH {_strength(v)}"
+        f"{optimum}{surrogate}."
     ]
+
+
+def _strength(v: dict[str, Any], interval: str = "an interval") -> str:
+    """The rank agreement in words: Spearman's rho and its interval, "only weakly" when the
+    interval reaches zero."""
+    rho = f"Spearman {v['spearman']:.2f} [{v['low']:.2f}, {v['high']:.2f}]"
+    if v["low"] <= 0:
+        return f"only weakly, with {rho} ({interval} that includes no agreement)"
+    return f"with {rho}" + ("" if interval == "an interval" else f" ({interval})")
 
 
 def validation_section(out_dir: str | Path) -> str:
@@ -159,7 +169,8 @@ def validation_section(out_dir: str | Path) -> str:
         claim = (
             "**By SPH none of the GA's winners beats the bucket**: the GA has optimised the thin-sheet "
             "model's idealisation (a sheet kept at full speed through every sharp crease and re-impact), and "
-            "the case study's result 'the GA finds surfaces better than the bucket' holds for the model only."
+            "the case study's result, that the GA finds surfaces better than the bucket, holds for the "
+            "model only."
         )
     surrogate = ""
     if v["surrogate"] is not None:
@@ -176,8 +187,7 @@ def validation_section(out_dir: str | Path) -> str:
     same = _same_runs(out, ok)
     return (
         head + f"The validation study ([jet_validation.md](jet_validation.md)) scored {v['n']} surfaces both "
-        f"ways: the model ranks them like SPH with Spearman {v['spearman']:.2f} "
-        f"[{v['low']:.2f}, {v['high']:.2f}] (95 % bootstrap interval).{surrogate}\n\n"
+        f"ways: the model ranks them like SPH {_strength(v, 'a 95 % bootstrap interval')}.{surrogate}\n\n"
         + table(rows, ["surface", "thin-sheet model, force / rho Q V", "SPH, force / (measured flux x V)"])
         + f"\n\n{claim}{same}\n"
     )

@@ -158,7 +158,9 @@ ways and measures how well the rankings agree. **Every force below says which so
 - **SPH**: SPlisHSPlasH {prov.get("engine")} (DFSPH, one thread), the paper's half jet simulated whole
   on the surface joined to its mirror image ([sph.md](sph.md) describes the set-up); {duration:g} ms
   simulated; the mean is taken from {1e3 * config["settle_time"]:g} ms after the jet reaches the surface
-  (the sheet on a spiky surface takes that long to settle) to one jet diameter's travel before the end.
+  (the sheet on a spiky surface takes that long to settle) to one jet diameter's travel before the end
+  (longer and later than the SPH study's runs of the plate and the bucket in sph.md, whose forces
+  therefore differ from these by a few per cent).
   SPH forces are given over the **measured** momentum flux of the simulated jet (its particles' mass
   flux x V), the quantity the model's force / rho Q V is; at one particle radius all surfaces get the
   same jet, so rankings are those of the forces.
@@ -168,8 +170,9 @@ ways and measures how well the rankings agree. **Every force below says which so
   surfaces are among SPH's k best (chance: k^2 / n).
 - **Cache**: every simulation is a directory of the SPH cache named by a hash of surface, settings,
   engine version and the SPH code (`replication.casestudy.sph_batch`); {prov.get("simulations", "?")}
-  distinct simulations took {seconds / 3600:.2f} h of wall time in all (one core each, at most 2 at a
-  time, on a shared 2-core machine under load).{_origin(prov, surfaces)}
+  distinct simulations of the scoring and resolution studies took {seconds / 3600:.2f} h of wall time
+  (one core each, at most 2 at a time, on a shared 2-core machine under load; the repeatability
+  check's shifted runs, whose times were not kept, come on top).{_origin(prov, surfaces)}
 
 ## Resolution study
 
@@ -187,6 +190,8 @@ conservative there).
 {resolution_limit(d)}
 
 ![Resolution study](figures/jet_validation_resolution.png)
+
+([SVG](figures/jet_validation_resolution.svg); data: `data/jet_validation_resolution.csv`.)
 
 ### Repeatability: the SPH noise floor
 

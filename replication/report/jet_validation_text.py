@@ -34,6 +34,12 @@ SPH = "sph_over_measured_flux"
 AGREEMENT_HEADER = ["surfaces", "n", "Spearman [95 % CI]", "Kendall [95 % CI]", "top 3", "top 5", "top 10"]
 
 
+def _linear_factor(coarse: float, fine: float) -> float:
+    """The residual bound per unit of the last change, r1 / (r2 - r1) for the finest radius r1
+    and the next r2 (as :func:`replication.experiments.jet_validation_tables.residual_table`)."""
+    return float(fine) / (float(coarse) - float(fine))
+
+
 def _ci(value: Any, low: Any, high: Any) -> str:
     return f"{fmt(value, '.2f')} [{fmt(low, '.2f')}, {fmt(high, '.2f')}]"
 
@@ -88,13 +94,14 @@ def resolution_limit(d: dict[str, Any]) -> str:
     return (
         f"**The limit of this study.** No radius finer than r = {fine:g} mm was simulated (0.4 mm costs "
         "about twice as much per simulation and did not fit the study's time), so the error left at "
-        f"r = {fine:g} mm is not bounded by a further refinement: it is stated by the last change, "
-        f"{coarse:g} -> {fine:g} mm, per surface in the table above (force / flux V, the change and the "
-        f"surface's rank among the {int(row['n'])}). Over these surfaces that change is at most "
+        f"r = {fine:g} mm is not bounded by a further refinement: it is estimated from the last change, "
+        f"{coarse:g} -> {fine:g} mm, per surface in the table above (force / flux V, the change, the "
+        f"surface's rank among the {int(row['n'])} and the residual bound it implies if the force "
+        f"converges only linearly in r). Over these surfaces that change is at most "
         f"{fmt(row['max_change'], '.3f')} (median {fmt(row['median_change'], '.3f')}), and the ranking at "
         f"{coarse:g} mm agrees with that at {fine:g} mm with Spearman "
         f"{_ci(row['spearman'], row['spearman_low'], row['spearman_high'])}. Differences between "
-        "surfaces smaller than these changes are within SPH's resolution error."
+        "surfaces smaller than their residual bounds are within SPH's resolution error."
     )
 
 
@@ -235,8 +242,10 @@ def findings(d: dict[str, Any]) -> str:
             f"ranking of the resolution study's {int(coarse['n'])} surfaces has Spearman "
             f"{fmt(coarse['spearman'], '.2f')}; "
             f"the largest change of force / flux V is {fmt(coarse['max_change'], '.3f')} (median "
-            f"{fmt(coarse['median_change'], '.3f')}); no finer radius was simulated (see the resolution "
-            "study: this change is the stated residual error)."
+            f"{fmt(coarse['median_change'], '.3f')}); no finer radius was simulated, so the error left "
+            "at the finest radius is estimated from this change (the resolution study's residual bounds: "
+            f"{_linear_factor(coarse['radius_mm'], conv.iloc[-1]['radius_mm']):.3g} times it, if the force "
+            "converges only linearly in r)."
         )
     sur = d.get("surrogate_agreement")
     if sur is not None and len(sur):

@@ -19,8 +19,8 @@ def fmt(value: Any, spec: str = ".3g") -> str:
         return "yes" if value else "no"
     if spec == "int":
         return f"{int(round(float(value))):,}"
-    if spec == "pct":
-        return f"{100 * float(value):.0f} %"
+    if spec == "pct":  # the fraction rounded as ".2f" rounds it, so that 0.785 reads 79 % beside 0.79
+        return f"{100 * float(format(float(value), '.2f')):.0f} %"
     return format(float(value), spec)
 
 

@@ -165,11 +165,12 @@ def _comparison(frame: pd.DataFrame, base: str, head: str, machine: str, factor:
         f"## Comparison `{base}` → `{head}` (machine `{machine}`)",
         "",
         f"Verdicts with asv's rule at a factor of {factor:g}: {summary}. The ratio is `{head}` / "
-        f"`{base}`. A value is *slower*/*faster* "
-        f"(or *higher*/*lower*) only when the ratio passes the factor and the samples differ "
-        f"significantly (Mann-Whitney U, p < {P_THRESHOLD:g}, or 99 % confidence intervals of "
-        "the medians apart); *noise* passes the factor but not the test; *cannot tell*: a "
-        "single sample or no statistics, so no test is possible.",
+        f"`{base}`. A timing is *slower*/*faster* only when the ratio passes the factor and the "
+        f"samples differ significantly (Mann-Whitney U, p < {P_THRESHOLD:g}, or 99 % confidence "
+        "intervals of the medians apart); *noise* passes the factor but not the test; *cannot "
+        "tell*: a single sample or no statistics, so no test is possible. A peak of memory or a "
+        "tracked value (asv keeps one number, no samples) is *higher*/*lower* on the factor alone "
+        "(test '–').",
         "",
         table(
             [r for _, r in rows],
@@ -340,8 +341,9 @@ def speed_table(out_dir: str | os.PathLike[str]) -> list[str]:
     _, machine, by_machine, order = newest
     return [
         f"asv's latest measurements on machine `{machine}`, drawn by `replication report --performance` "
-        "from [reports/data/performance_asv.csv](reports/data/performance_asv.csv); every value's "
-        f"history and spread is in [reports/performance.md](reports/performance.md). {RULE}.",
+        "from [reports/data/performance_asv.csv](reports/data/performance_asv.csv), which keeps every "
+        "measured commit; [reports/performance.md](reports/performance.md) shows the latest commits' "
+        f"values with the spread of each timing. {RULE}.",
         "",
         *speed_lines(goal_rows(by_machine, order)),
     ]

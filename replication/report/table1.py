@@ -293,8 +293,9 @@ def _paper_files(d: dict[str, Any]) -> str:
         return ""
     return (
         "What the paper's 9-point files suggest about how they were written:\n\n" + "\n".join(found) + "\n\n"
-        "The paper's ADT numbers were short and its NURBS numbers long: its two files were not written "
-        "at equal precision."
+        "The paper's ADT numbers were short and its NURBS numbers long, which suggests that its two "
+        "files were not written at equal precision (headers or metadata the paper does not describe "
+        "could account for part of the NURBS file too)."
     )
 
 
@@ -402,12 +403,13 @@ The details, the paper's numbers side by side and the reasons follow.
 - **Clouds**: for each n, points drawn uniformly in the box x {box[0]:g}..{box[1]:g},
   y {box[2]:g}..{box[3]:g}, z {box[4]:g}..{box[5]:g} mm {lattice} (paper eq. 1-4). The paper's
   Table 1 domain is unstated ("a discretised domain"); this is the only domain the paper gives
-  (section 6), and integer-mm
-  coordinates match the size of its 9-point file. Points that share an (x, y) node are merged by
-  ADT's mean-depth policy (counted below). Table 1 uses one cloud per n, as the paper did; the
-  Monte Carlo section repeats everything over {config["mc_seeds"]} clouds per n.
+  (section 6), and integer-mm coordinates come nearest to the size of its 9-point file (see
+  "Storage"). Points that share an (x, y) node are merged by ADT's mean-depth policy (counted
+  below). Table 1 uses one cloud per n, as the paper did; the Monte Carlo section repeats
+  everything over {config["mc_seeds"]} clouds per n.
 - **ADT**: paper section 3.2 steps 4-10 (`replication.adt`), depth axis by minimum spread.
-- **NURBS**: paper section 3.1 (`replication.fit_nurbs`): degree {config["degree"]}, control net
+- **NURBS**: paper section 3.1 (`replication.fit_nurbs`): degree {config["degree"]} (the paper says
+  "the degree of the curve is taken as three", but its knot vectors have order 3: see the README), control net
   m_u x m_v = n where n factors near the cloud's aspect ratio, linear gridding (nodes outside the
   convex hull take the nearest point's depth), clamped uniform knots, weights 1, evaluated on a
   {config["tessellation"][0]} x {config["tessellation"][1]} tessellation with geomdl (the
@@ -522,6 +524,8 @@ over {config["scale_repeats"]} interleaved repeats (data: `data/table1_scale.csv
 {scale_times}
 
 ![Scale sweep](figures/table1_scale.png)
+
+([SVG](figures/table1_scale.svg); per-repeat times: `data/table1_scale_raw.csv`.)
 
 Growth exponents from a least-squares fit of log(time) on log(n) (data: `data/table1_growth.csv`):
 

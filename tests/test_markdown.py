@@ -1,0 +1,34 @@
+"""Number formats of the reports (replication.report.markdown)."""
+
+import math
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from replication.report.markdown import fmt, iqr, table
+
+
+@pytest.mark.parametrize(
+    ("fraction", "percent"),
+    [(0.785, "79 %"), (0.955, "95 %"), (0.475, "47 %"), (1.0, "100 %"), (0.0, "0 %"), (0.995, "99 %")],
+)
+def test_a_percentage_agrees_with_the_fraction_at_two_decimals(fraction, percent):
+    # a fraction printed both ways in one report (a table in percent, a sentence in .2f) must
+    # not read 78 % beside 0.79: both round the same decimal digits
+    assert fmt(fraction, "pct") == percent
+    assert fmt(fraction, "pct") == f"{round(100 * float(format(fraction, '.2f')))} %"
+
+
+@given(st.floats(0.0, 1.0))
+def test_percent_and_two_decimals_always_agree(fraction):
+    two = format(fraction, ".2f")
+    assert fmt(fraction, "pct") == f"{int(two.replace('.', ''))} %"
+
+
+def test_missing_values_and_other_formats():
+    assert fmt(None) == fmt(math.nan) == "–"
+    assert fmt(True) == "yes" and fmt(False) == "no"
+    assert fmt(1234.6, "int") == "1,235"
+    assert iqr(1.0, 0.5, 2.0) == "1 [0.5, 2]"
+    assert table([["a", "1"]], ["x", "y"]) == "| x | y |\n| :--- | ---: |\n| a | 1 |"
