@@ -519,7 +519,10 @@ the storage section above.
 ## Scale sweep
 
 Continuous clouds (so that points stay distinct) in the same box; build times, median [IQR]
-over {config["scale_repeats"]} interleaved repeats (data: `data/table1_scale.csv`):
+over {config["scale_repeats"]} interleaved repeats (data: `data/table1_scale.csv`). The times are
+this run's and move with the machine's state between runs (on a shared virtual machine, by tens
+of per cent for the same code): compare the ratios and growth exponents within one run, and see
+asv's record (performance.md) for the history of a time.
 
 {scale_times}
 
