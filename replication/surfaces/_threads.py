@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 from typing import Any
 
 import numpy as np
@@ -73,19 +73,41 @@ def run(tasks: Sequence[Callable[[], Any]]) -> list[Any]:
             _pool = ThreadPoolExecutor(max_workers=count - 1, thread_name_prefix="replication-kernels")
         pool = _pool
     results: list[Any] = [None] * len(tasks)
-    queue = iter(range(len(tasks)))
-    take = threading.Lock()
+    queue = iter(range(len(tasks)))  # next() on a range iterator is atomic: no lock to leave held
+    stopped: list[bool] = []
 
     def work() -> None:
-        while True:
-            with take:
-                k = next(queue, None)
+        while not stopped:
+            k = next(queue, None)
             if k is None:
                 return
             results[k] = tasks[k]()
 
     helpers = [pool.submit(work) for _ in range(count - 1)]
-    work()
+    try:
+        work()
+    finally:
+        stopped.append(True)  # an interrupted or failed run starts no further task
+        _wait_through_interrupts(helpers)
     for helper in helpers:
         helper.result()
     return results
+
+
+def _wait_through_interrupts(futures: Sequence[Any]) -> None:
+    """Wait until the pool threads have finished their tasks, even through Ctrl-C.
+
+    The tasks write into arrays that the caller frees when an exception (Ctrl-C) unwinds it:
+    leaving while a compiled kernel still runs on another thread crashed the interpreter
+    (a segmentation fault in 4 of 50 interrupted 2e6-point ``replication adt`` runs). A
+    task is one block's kernel, seconds at most; a Ctrl-C during the wait is raised after it.
+    """
+    interrupted = False
+    while True:
+        try:
+            wait(futures)
+            break
+        except KeyboardInterrupt:
+            interrupted = True
+    if interrupted:
+        raise KeyboardInterrupt

@@ -1,0 +1,74 @@
+"""The kernels' thread pool (replication.surfaces._threads): an interrupted run waits for its
+pool threads before it unwinds, since their tasks write into arrays the caller then frees."""
+
+import os
+import signal
+import threading
+import time
+
+import numba
+import pytest
+
+from replication.surfaces import _threads
+
+
+@pytest.fixture
+def two_threads():
+    before = numba.get_num_threads()
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba allows one thread here")
+    numba.set_num_threads(2)
+    yield
+    numba.set_num_threads(before)
+
+
+def _tasks(started, finished, interrupt):
+    """Task 0 (the calling thread) waits until task 1 runs on the pool thread, then raises
+    ``interrupt``; task 1 takes a while; tasks 2.. must then never start."""
+
+    def first():
+        assert started.wait(5)
+        raise interrupt
+
+    def slow():
+        started.set()
+        time.sleep(0.3)
+        finished.set()
+
+    def never():
+        raise AssertionError("a task started after the run was interrupted")
+
+    return [first, slow, never, never]
+
+
+@pytest.mark.parametrize("interrupt", [KeyboardInterrupt, ValueError("a task failed")])
+def test_an_interrupted_run_waits_for_the_task_under_way_and_starts_no_other(two_threads, interrupt):
+    started, finished = threading.Event(), threading.Event()
+    with pytest.raises(type(interrupt) if isinstance(interrupt, Exception) else interrupt):
+        _threads.run(_tasks(started, finished, interrupt))
+    assert finished.is_set()  # before: run() returned while the pool thread still worked
+
+
+def test_a_second_ctrl_c_while_waiting_is_raised_after_the_wait(two_threads):
+    started, finished = threading.Event(), threading.Event()
+
+    def slow_and_interrupting():
+        started.set()
+        time.sleep(0.1)
+        os.kill(os.getpid(), signal.SIGINT)  # the main thread is waiting now
+        time.sleep(0.3)
+        finished.set()
+
+    tasks = _tasks(started, finished, KeyboardInterrupt)
+    tasks[1] = slow_and_interrupting
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            _threads.run(tasks)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert finished.is_set()
+
+
+def test_results_in_task_order(two_threads):
+    assert _threads.run([lambda k=k: k * k for k in range(7)]) == [k * k for k in range(7)]
