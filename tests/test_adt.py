@@ -260,6 +260,19 @@ def test_spreads_of_a_large_cloud_are_exact_enough_and_thread_independent():
     assert not column_spreads(np.where(np.arange(300_000)[:, None] == 7, np.nan, cloud))[1]
 
 
+def test_spreads_of_columns_of_very_different_magnitudes_are_each_right():
+    """One scale for the whole cloud made a column of ones beside one of 1e200 read a spread of
+    0 (its squared deviations underflowed): the spreads a surface reports were wrong."""
+    from replication.surfaces._spread import validated_cloud
+
+    x = np.array([-1e200, 1e200, -1e200, 1e200])
+    y = np.array([0.0, 1e-9, 0.0, 2e-9])
+    z = np.array([0.0, 1.0, 2.0, 3.0])
+    _, spreads = validated_cloud(np.column_stack([x, y, z]))
+    expected = [np.std(v / s) * s for v, s in ((x, 1e200), (y, 1e-9), (z, 1.0))]
+    np.testing.assert_allclose(spreads, expected, rtol=1e-14)  # before: (1e200, 0, 0)
+
+
 @given(st.integers(0, 2**32 - 1), st.integers(-1000, 1000))
 def test_the_depth_axis_and_surface_do_not_depend_on_the_units(seed, exponent):
     """Squared deviations underflowed (every spread 0 at 1e-170: the tie rule chose z) or

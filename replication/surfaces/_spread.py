@@ -70,20 +70,24 @@ _TINY = 2.0**-450
 
 
 def _rescaled_spreads(cloud: np.ndarray) -> np.ndarray:
-    """Spreads of a cloud whose squared deviations overflow or underflow float64, computed on
-    the cloud scaled by a power of two to unit magnitude and scaled back (exact, except for
-    coordinates more than 2**1022 times smaller than the largest, which scaling down rounds
-    and which do not move a spread).
+    """Spreads of a cloud whose squared deviations overflow or underflow float64, each column
+    computed on itself scaled by a power of two to unit magnitude and scaled back (exact).
 
     Without this the depth axis depended on the units: at 1e-170 every spread was 0 and the
-    tie rule chose z; from 1e155 the spreads overflowed and the cloud was refused.
+    tie rule chose z; from 1e155 the spreads overflowed and the cloud was refused. Each column
+    takes its own scale: with one scale for the cloud, a column of metres beside one of 1e200
+    had its squared deviations underflow, and read a spread of 0.
     """
-    magnitude = float(np.abs(cloud).max())
-    if magnitude == 0.0:
-        return np.zeros(3)
-    exponent = math.frexp(magnitude)[1]
-    values, _ = column_spreads(np.ldexp(cloud, -exponent))
-    return np.ldexp(values, exponent)
+    spreads = np.zeros(cloud.shape[1])
+    for c in range(cloud.shape[1]):
+        column = np.ascontiguousarray(cloud[:, c : c + 1])
+        magnitude = float(np.abs(column).max())
+        if magnitude == 0.0:
+            continue
+        exponent = math.frexp(magnitude)[1]
+        values, _ = column_spreads(np.ldexp(column, -exponent))
+        spreads[c] = math.ldexp(float(values[0]), exponent)
+    return spreads
 
 
 def validated_cloud(points: ArrayLike) -> tuple[np.ndarray, tuple[float, float, float]]:
