@@ -149,6 +149,26 @@ def test_argparse_errors_exit_2(capsys):
     assert exc.value.code == 2
 
 
+@pytest.mark.parametrize(
+    ("argv", "said"),
+    [
+        (["adt", "--random", "0"], "replication adt: error: argument --random"),
+        (["adt", "--bogus", "x.csv"], "replication adt: error: unrecognized arguments: --bogus"),
+        (["force", "x.csv", "--depth", "x"], "replication force: error: unrecognized arguments: --depth x"),
+        (["no-such-command"], "replication: error: argument COMMAND: invalid choice"),
+    ],
+)
+def test_a_usage_error_is_one_line_that_names_the_command(capsys, argv, said):
+    # argparse printed its whole usage block first (9 lines), and unknown options were blamed
+    # on the top level ("replication: error: ...")
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1, err
+    assert err.startswith(said) and "--help" in err
+
+
 @pytest.mark.parametrize("argv", [["--help"], ["adt", "--help"], ["reproduce", "--help"]])
 def test_help(capsys, argv):
     with pytest.raises(SystemExit) as exc:

@@ -20,6 +20,7 @@ import re
 import shlex
 import sys
 from collections.abc import Callable, Iterable, Sequence
+from typing import NoReturn
 
 from replication.errors import ReplicationError, shortened
 
@@ -84,7 +85,7 @@ def build_parser(commands: Iterable[str] | None = None) -> argparse.ArgumentPars
     ``replication adt ...`` import nothing of the other commands.
     """
     modules = {COMMANDS[name][0] for name in (COMMANDS if commands is None else commands)}
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="replication",
         description=(
             "Reproduce 'adapted Delaunay triangulation' (ADT) surfaces from random point clouds, "
@@ -169,13 +170,32 @@ def _unexpected(exc: BaseException) -> str:
     return f"{_one_line(exc)} (run with --debug for the traceback)"
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser with errors of one line (argparse prints its whole usage first); the
+    exit status stays argparse's 2, a usage error, against 1 for a failed command."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+def _unrecognized(parser: argparse.ArgumentParser, command: str, extra: list[str]) -> NoReturn:
+    """Refuse arguments the command does not know, naming the command (not the top level)."""
+    target = parser
+    for action in parser._actions:  # the command's own parser, for its name in the message
+        if isinstance(action, argparse._SubParsersAction) and command in action.choices:
+            target = action.choices[command]
+    target.error(f"unrecognized arguments: {' '.join(extra)}")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``replication`` command; returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
     command = _command(argv)
     try:  # building the parser imports the command's module: a second or so
         parser = build_parser([command] if command in COMMANDS else [])
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(argv)
+        if extra:
+            _unrecognized(parser, args.command, extra)
     except KeyboardInterrupt:  # was a traceback: main's handlers below did not cover it yet
         print(f"replication{f' {command}' if command in COMMANDS else ''}: interrupted", file=sys.stderr)
         return 130
