@@ -22,23 +22,28 @@ def two_threads():
     numba.set_num_threads(before)
 
 
-def _tasks(started, finished, interrupt):
-    """Task 0 (the calling thread) waits until task 1 runs on the pool thread, then raises
-    ``interrupt``; task 1 takes a while; tasks 2.. must then never start."""
+def _tasks(started, finished, interrupt, slow=None):
+    """Two tasks whose part depends on the thread that takes them (either may take task 0):
+    on the calling thread, wait until the pool thread runs its task, then raise ``interrupt``;
+    on the pool thread, take a while (``slow``). Tasks 2.. must then never start."""
 
-    def first():
-        assert started.wait(5)
-        raise interrupt
-
-    def slow():
+    def default_slow():
         started.set()
         time.sleep(0.3)
         finished.set()
 
+    caller = threading.current_thread()  # the thread that will call run()
+
+    def either():
+        if threading.current_thread() is caller:
+            assert started.wait(5)
+            raise interrupt
+        (slow or default_slow)()
+
     def never():
         raise AssertionError("a task started after the run was interrupted")
 
-    return [first, slow, never, never]
+    return [either, either, never, never]
 
 
 @pytest.mark.parametrize("interrupt", [KeyboardInterrupt, ValueError("a task failed")])
@@ -59,8 +64,7 @@ def test_a_second_ctrl_c_while_waiting_is_raised_after_the_wait(two_threads):
         time.sleep(0.3)
         finished.set()
 
-    tasks = _tasks(started, finished, KeyboardInterrupt)
-    tasks[1] = slow_and_interrupting
+    tasks = _tasks(started, finished, KeyboardInterrupt, slow_and_interrupting)
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         with pytest.raises(KeyboardInterrupt):
