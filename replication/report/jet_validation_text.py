@@ -36,7 +36,7 @@ AGREEMENT_HEADER = ["surfaces", "n", "Spearman [95 % CI]", "Kendall [95 % CI]", 
 
 def _linear_factor(coarse: float, fine: float) -> float:
     """The residual bound per unit of the last change, r1 / (r2 - r1) for the finest radius r1
-    and the next r2 (as :func:`replication.experiments.jet_validation_tables.residual_table`)."""
+    and the next r2 (the table's bounds and the findings' sentence both use it)."""
     return float(fine) / (float(coarse) - float(fine))
 
 
@@ -71,7 +71,7 @@ def resolution_rows(d: dict[str, Any]) -> list[list[str]]:
     for name in dict.fromkeys(res["surface"]):
         values = [wide.loc[name, r] if name in wide.index else np.nan for r in radii]
         last = values[-1] - values[-2] if len(values) >= 2 else np.nan
-        bound = abs(last) * radii[-1] / (radii[-2] - radii[-1]) if len(values) >= 2 else np.nan
+        bound = abs(last) * _linear_factor(radii[-2], radii[-1]) if len(values) >= 2 else np.nan
         rank = (
             f"{fmt(ranks.loc[name, radii[-2]], '.0f')} -> {fmt(ranks.loc[name, radii[-1]], '.0f')}"
             if len(radii) >= 2 and name in ranks.index
