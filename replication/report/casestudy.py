@@ -20,11 +20,10 @@ from matplotlib.patches import Wedge
 
 from replication.errors import DuplicatePointsWarning
 from replication.experiments.casestudy import differences_from_paper
-from replication.io.atomic import atomic_write_text
 from replication.report.casestudy_rescore import RESCORE_FILES, rescore_section, save_rescore_data  # issue 11
 from replication.report.casestudy_validation import fitness_note, validation_section  # issue 11
 from replication.report.figures import clear_figures, figure_files, save_figure
-from replication.report.markdown import fmt, iqr, provenance_section, table
+from replication.report.markdown import fmt, iqr, provenance_section, table, write_report
 from replication.report.parallel import run_figure_tasks
 from replication.report.render3d import render_views
 from replication.report.store import data_set, read_csv, read_json, write_csv, write_json
@@ -364,6 +363,6 @@ replication report                  # re-render from data/ only
 {provenance_section(prov)}
 """
     path = out / "casestudy.md"
-    atomic_write_text(path, text)
+    write_report(path, text)
     clear_figures(figures, "casestudy_", before=earlier)  # e.g. casestudy_best_run2.png of a 3-run report
     return path

@@ -13,7 +13,6 @@ from typing import Any
 
 import pandas as pd
 
-from replication.io.atomic import atomic_write_text
 from replication.report.jet_validation_figures import resolution_figure, scatter_figure
 from replication.report.jet_validation_text import (
     AGREEMENT_HEADER,
@@ -29,7 +28,7 @@ from replication.report.jet_validation_text import (
     surface_rows,
     surrogate_section,
 )
-from replication.report.markdown import provenance_section, table
+from replication.report.markdown import provenance_section, table, write_report
 from replication.report.store import data_set, read_csv, read_json, write_csv, write_json
 
 __all__ = [
@@ -239,7 +238,7 @@ replication validate-jet --quick         # three surfaces, coarse particles
 {provenance_section(prov)}
 """
     path = out / "jet_validation.md"
-    atomic_write_text(path, text)
+    write_report(path, text)
     return path
 
 

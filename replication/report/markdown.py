@@ -3,12 +3,17 @@
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-__all__ = ["fmt", "table", "provenance_section", "iqr"]
+__all__ = ["fmt", "table", "provenance_section", "iqr", "write_report"]
+
+#: The part of the provenance line that names the commit that drew the page (not its data).
+_RENDERED_BY = re.compile(r"; rendered by commit `[^`\n]*`")
 
 
 def fmt(value: Any, spec: str = ".3g") -> str:
@@ -81,3 +86,23 @@ def provenance_section(record: dict[str, Any]) -> str:
     if (record.get("workers") or 1) > 1:
         lines.append(f"- Worker processes for the untimed work: {record['workers']} (the timings ran alone)")
     return "\n".join(lines)
+
+
+def write_report(path: Path, text: str) -> Path:
+    """Write a report page atomically, unless it would differ only in its "rendered by" commit.
+
+    Re-rendering the committed reports from their data at a later commit draws the same page;
+    replacing the file would then change only the commit that rendered it and leave a checkout
+    with modified reports after a command that changed nothing. The page kept names an earlier
+    commit that drew exactly this text, which stays true.
+    """
+    from replication.io.atomic import atomic_write_text
+
+    try:
+        old = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        old = None
+    if old is not None and _RENDERED_BY.sub("", old) == _RENDERED_BY.sub("", text):
+        return path
+    atomic_write_text(path, text)
+    return path

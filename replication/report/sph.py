@@ -12,8 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from replication.io.atomic import atomic_write_text
-from replication.report.markdown import fmt, provenance_section, table
+from replication.report.markdown import fmt, provenance_section, table, write_report
 from replication.report.sph_figures import convergence_figure, run_label, series_figure
 from replication.report.store import data_set, read_csv, read_json, write_csv, write_json
 
@@ -345,5 +344,5 @@ replication force flat.csv --solver sph --particle-radius 0.75 --json   # one su
 {provenance_section(prov)}
 """
     path = out / "sph.md"
-    atomic_write_text(path, text)
+    write_report(path, text)
     return path

@@ -17,11 +17,10 @@ import pandas as pd
 
 from replication.experiments.storage import COORDINATES, EQUAL_PRECISION, FAMILIES
 from replication.experiments.table1_claims import STORAGE_HEADLINE, WHY_ABSOLUTE
-from replication.io.atomic import atomic_write_text
 from replication.io.nurbs import write_nurbs
 from replication.io.vtk import read_surface, write_vtk
 from replication.report.figures import clear_figures, fig6, figure_files, scale_figure
-from replication.report.markdown import fmt, iqr, provenance_section, table
+from replication.report.markdown import fmt, iqr, provenance_section, table, write_report
 from replication.report.parallel import run_figure_tasks
 from replication.report.render3d import render_views
 from replication.report.store import data_set, read_csv, read_json, write_csv, write_json
@@ -549,6 +548,6 @@ replication report            # re-render the markdown and figures from data/ on
 {provenance_section(prov)}
 """
     path = out / "table1.md"
-    atomic_write_text(path, text)
+    write_report(path, text)
     clear_figures(out / "figures", "table1_", before=earlier)  # no earlier run's figure stays beside these
     return path
