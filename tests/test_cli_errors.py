@@ -315,6 +315,23 @@ def test_report_readme_problems(capsys, report_copy, tmp_path):
     assert code == 1 and one_line(err, "report") and "--readme" in err and "are the same file" in err, err
 
 
+def test_report_with_other_settings_leaves_the_committed_page(capsys, tmp_path, monkeypatch):
+    """`report --performance --commits 1` redrew the committed reports/performance.md (and the
+    README's speed block) with one commit: another setting needs a directory named for it."""
+    reports = tmp_path / "reports"
+    (reports / "data").mkdir(parents=True)
+    (reports / "performance.md").write_text("committed\n")
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run(capsys, "report", "--performance", "--commits", "1")
+    assert code == 1 and one_line(err, "report") and "--commits 1" in err and "--output-dir" in err, err
+    code, _, err = run(capsys, "report", "--commits", "3")
+    assert code == 1 and one_line(err, "report") and "add --performance" in err, err
+    assert (reports / "performance.md").read_text() == "committed\n"
+    assert sorted(p.name for p in reports.rglob("*")) == ["data", "performance.md"]
+    code, out, err = run(capsys, "report", "--performance", "--commits", "1", "--output-dir", reports)
+    assert "--commits" not in err  # named on purpose: allowed (here it fails later, for want of data)
+
+
 def test_report_without_a_reports_directory(capsys, tmp_path):
     code, _, err = run(capsys, "report", "--output-dir", tmp_path / "none")
     assert code == 1 and one_line(err, "report") and "does not exist" in err

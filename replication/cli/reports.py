@@ -18,6 +18,8 @@ from replication.kernels import release_threads, warm_up
 
 #: asv's results directory in a checkout (``results_dir`` of asv.conf.json).
 DEFAULT_ASV_RESULTS = ".asv/results"
+#: How many recent commits the committed performance.md shows (``report --commits``).
+DEFAULT_COMMITS = 5
 #: The markdown files ``replication report`` may write.
 RENDERED = ("table1.md", "sph.md", "casestudy.md", "performance.md", "index.md")
 
@@ -136,13 +138,21 @@ def _fill_speed_block(readme: Path | None, out: Path) -> list[Path]:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from replication.errors import ReportDataError
+    from replication.errors import InputError, ReportDataError
     from replication.io.paths import check_report_dir, lookup, same_file
     from replication.report.casestudy import render_casestudy
     from replication.report.index import update_readme
     from replication.report.table1 import render_table1
 
     out = Path(args.output_dir or DEFAULT_DIR)
+    commits = DEFAULT_COMMITS if args.commits is None else args.commits
+    if args.commits is not None and not args.performance:
+        raise InputError(f"--commits {args.commits} applies to performance.md only: add --performance")
+    if commits != DEFAULT_COMMITS and not args.output_dir:  # reports/ is written with its settings only
+        raise InputError(
+            f"--commits {commits} would redraw the committed {out / 'performance.md'}, which shows "
+            f"{DEFAULT_COMMITS} commits: copy {out}/ and name the copy with --output-dir to draw it there"
+        )
     found = lookup(out, ReportDataError, "reports directory")
     if not found.is_dir:
         what = "is a file" if found.exists else "does not exist"
@@ -162,7 +172,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     if args.performance:
         from replication.report.performance import render_performance
 
-        written.append(render_performance(results, out, commits=args.commits))
+        written.append(render_performance(results, out, commits=commits))
         written += _fill_speed_block(readme, out)
     if (out / "data" / "table1_provenance.json").is_file():
         written.append(_render(render_table1, "table1", out))
@@ -314,8 +324,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--commits",
         type=positive_int,
-        default=5,
-        help="how many recent commits performance.md shows (default 5)",
+        metavar="N",
+        help=f"how many recent commits performance.md shows (default {DEFAULT_COMMITS}; another N "
+        "only with --output-dir, so that the committed page keeps its settings)",
     )
     p.add_argument(
         "--readme", metavar="FILE", help="also refresh the headline block of this README from the data"
