@@ -504,15 +504,11 @@ def test_underflowing_coordinates_are_named(capsys, tmp_path):
     assert code == 1 and one_line(err, "adt") and "collinear" in err and "underflow" not in err
 
 
-def test_numeric_header_row_is_detected_or_reported(tmp_path):
-    from replication.io import load_cloud
-
+def test_an_ambiguous_first_line_0_1_2_is_one_line(capsys, tmp_path):
     (tmp_path / "floats.csv").write_text("0,1,2\n1.5,2,3\n4,5.25,6\n7,8,1.5\n")
-    (tmp_path / "ints.csv").write_text("0,1,2\n1,2,3\n4,5,6\n7,1,1\n")
-    with pytest.warns(UserWarning, match="looks like pandas' header of column numbers and was skipped"):
-        assert load_cloud(tmp_path / "floats.csv").shape == (3, 3)
-    with pytest.warns(UserWarning, match=r"was read as the point \(0, 1, 2\)"):
-        assert load_cloud(tmp_path / "ints.csv").shape == (4, 3)
+    for command in ("adt", "compare"):
+        code, _, err = run(capsys, command, tmp_path / "floats.csv")
+        assert code == 1 and one_line(err, command) and "either pandas' header" in err, err
 
 
 def test_build_seconds_excludes_loading_the_kernels(capsys, monkeypatch):

@@ -214,16 +214,69 @@ def test_save_load_round_trip(tmp_path, name):
     np.testing.assert_array_equal(load_cloud(tmp_path / name), cloud)
 
 
-def test_a_pandas_header_of_column_numbers_in_a_whitespace_file_is_still_recognised(tmp_path):
-    # save_cloud's own .txt marks its first line as a point; pandas' to_csv(sep=" ") does not
+@pytest.mark.parametrize(
+    "text",
+    [
+        "0,1,2\n1.5,2,3\n4,5.25,6\n7,8,1.5\n",  # was: skipped as pandas' header, with a warning
+        "0 1 2\n1.5 2 3\n4 5.25 6\n7 8 1.5\n",
+        "0, 1, 2\n1,2,3\n4,5,6\n7,1,1\n",  # was: kept as a point, with a warning
+        "\n0,1,2\n1.5,2,3\n4,5.25,6\n",
+    ],
+)
+def test_a_first_line_0_1_2_without_a_comment_is_refused(tmp_path, text):
+    """pandas' header of column numbers, or the point (0, 1, 2)? Skipping it by a guess made
+    `compare` on the same cloud give other numbers as .csv than as .npy."""
+    (tmp_path / "p.csv").write_text(text)
+    with pytest.raises(CloudFileError, match=r"line \d \('0,? ?1,? ?2'\) is either pandas' header") as info:
+        load_cloud(tmp_path / "p.csv")
+    assert "delete the line if it is a header" in str(info.value) and "\n" not in str(info.value)
+
+
+def test_a_pandas_frame_with_column_names_or_a_comment_above_reads_like_the_npy(tmp_path):
+    import pandas as pd
+
+    cloud = np.array([[0.0, 1.0, 2.0], [1.5, 2, 3], [4, 5.25, 6]])
+    np.save(tmp_path / "c.npy", cloud)
+    pd.DataFrame(cloud, columns=["x", "y", "z"]).to_csv(tmp_path / "named.csv", index=False)
+    (tmp_path / "points.csv").write_text("# the first point is (0, 1, 2)\n0,1,2\n1.5,2,3\n4,5.25,6\n")
+    save_cloud(cloud, tmp_path / "ours.txt")
+    assert (tmp_path / "ours.txt").read_text().startswith("# x y z\n0 1 2\n")
+    for name in ("named.csv", "points.csv", "ours.txt"):
+        np.testing.assert_array_equal(load_cloud(tmp_path / name), load_cloud(tmp_path / "c.npy"))
+    pd.DataFrame(cloud).to_csv(tmp_path / "unnamed.csv", index=False)  # its header is 0,1,2
+    with pytest.raises(CloudFileError, match="either pandas' header"):
+        load_cloud(tmp_path / "unnamed.csv")
+
+
+@pytest.mark.parametrize("header", ["y x z", "Y [mm] X [mm] Z [mm]", "y,x,z"])
+def test_a_comment_line_naming_the_axes_is_a_header(tmp_path, header):
+    """numpy.savetxt(..., header="y x z") writes "# y x z": the comment was ignored in .txt,
+    while the same names as a CSV header reordered the columns."""
     from replication.errors import CloudFileWarning
 
-    (tmp_path / "p.txt").write_text("0 1 2\n1.5 2 3\n4 5.25 6\n7 8 1.5\n")
-    with pytest.warns(CloudFileWarning, match="looks like pandas' header of column numbers and was skipped"):
-        assert load_cloud(tmp_path / "p.txt").shape == (3, 3)
-    save_cloud(np.array([[0, 1, 2], [1.5, 2, 3], [4, 5.25, 6]]), tmp_path / "ours.txt")
-    assert (tmp_path / "ours.txt").read_text().startswith("# x y z\n0 1 2\n")
-    assert load_cloud(tmp_path / "ours.txt").shape == (3, 3)
+    yxz = CLOUD[:, [1, 0, 2]]
+    np.savetxt(tmp_path / "c.txt", yxz, header=header.replace(" [mm]", "_mm"))
+    with pytest.warns(CloudFileWarning, match=r"x, y and z were read from columns 2, 1 and 3"):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "c.txt"), CLOUD)
+    np.savetxt(tmp_path / "in_order.txt", CLOUD, header="x y z")  # no reordering, no warning
+    np.testing.assert_array_equal(load_cloud(tmp_path / "in_order.txt"), CLOUD)
+
+
+@pytest.mark.parametrize(
+    "comment", ["# x vs y", "# y x z of the first run, in mm", "# a b c", "# y x z\n# made by hand"]
+)
+def test_other_comments_are_comments(tmp_path, comment):
+    (tmp_path / "c.txt").write_text(comment + "\n" + "".join(f"{x} {y} {z}\n" for x, y, z in CLOUD))
+    np.testing.assert_array_equal(load_cloud(tmp_path / "c.txt"), CLOUD)
+
+
+def test_a_comment_and_a_header_that_disagree_are_refused(tmp_path):
+    (tmp_path / "c.csv").write_text("# y x z\nx,y,z\n0,1.5,-2\n3,4.25,5\n")
+    with pytest.raises(CloudFileError, match="name the columns in different orders"):
+        load_cloud(tmp_path / "c.csv")
+    (tmp_path / "same.csv").write_text("# y x z\ny,x,z\n1.5,0,-2\n4.25,3,5\n0.5,1,1\n")
+    with pytest.warns(UserWarning, match="columns 2, 1 and 3"):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "same.csv")[0], [0, 1.5, -2])
 
 
 @settings(max_examples=30, deadline=None)

@@ -3,10 +3,14 @@
 Text files hold three numeric columns (x, y, z) separated by commas or white space, with an
 optional header line and optional ``#`` comments (a whole line, or the end of one). A header
 that names the axes (``z,x,y``, ``X [mm],Y [mm],Z [mm]``, or two of them: ``depth,x,y``) says
-which column is which; a header naming none, or each in its own column, is a label.
-A first line ``0,1,2`` (or ``0 1 2``) may be pandas' header of column numbers (see
-:func:`_column_number_header`), except in the files :func:`save_cloud` writes: their ``.csv``
-has the header ``x,y,z``, and their ``.txt``/``.xyz`` start with the comment ``# x y z``.
+which column is which; a header naming none, or each in its own column, is a label. A comment
+line just above the data that names all three axes, as ``numpy.savetxt(..., header="y x z")``
+writes it (``# y x z``), is such a header too.
+A first line ``0,1,2`` (or ``0 1 2``) with no comment above it is refused (see
+:func:`_column_number_header`): it is pandas' header of column numbers or the point (0, 1, 2),
+and a guess either way would make the same cloud give other numbers as ``.csv`` than as
+``.npy``. The files :func:`save_cloud` writes are never ambiguous: their ``.csv`` has the
+header ``x,y,z``, and their ``.txt``/``.xyz`` start with the comment ``# x y z``.
 Every problem is reported as a :class:`~replication.errors.CloudFileError` naming the file
 and, where it applies, the line.
 """
@@ -68,35 +72,34 @@ def _diagnose(path: Path, lines: list[tuple[int, str]], comma: bool) -> CloudFil
     return CloudFileError(f"{path}: could not parse the file as three numeric columns")
 
 
-def _column_number_header(path: Path, numbered: list[tuple[int, str]]) -> list[tuple[int, str]]:
-    """Decide about a first line ``0,1,2``: pandas' header of column numbers, or the point (0, 1, 2)?
+def _column_number_header(path: Path, number: int, line: str) -> CloudFileError:
+    """The error for a first line ``0,1,2`` that no comment marks as a point.
 
-    pandas writes the column labels 0, 1, 2 as a header when a frame has no column names.
-    When any other line holds a number that is not a whole number, a point (0, 1, 2) would
-    be the only integer point of the cloud: the line is taken for that header and skipped.
-    When every value is a whole number (a lattice cloud) the line may be a point and is
-    kept. Either way a warning says what was done.
+    pandas writes the column labels 0, 1, 2 as a header when a frame has no column names; the
+    same line is also the point (0, 1, 2). A guess either way (the line was skipped when the
+    other points were not all whole numbers) gave the same cloud other results as ``.csv``
+    than as ``.npy``, so the file must say which it is.
     """
-    if len(numbered) > 1 and any(
-        not float(t).is_integer()
-        for _, line in numbered[1:]
-        for t in _split(line, "," in line)
-        if _is_number(t)
-    ):
-        warnings.warn(
-            f"{path}: line {numbered[0][0]} ({numbered[0][1].strip()!r}) looks like pandas' header of column "
-            "numbers and was skipped (every other point has non-integer coordinates)",
-            CloudFileWarning,
-            stacklevel=4,
-        )
-        return numbered[1:]
-    warnings.warn(
-        f"{path}: line {numbered[0][0]} ({numbered[0][1].strip()!r}) was read as the point (0, 1, 2); if "
-        "it is pandas' header of column numbers, delete the line",
-        CloudFileWarning,
-        stacklevel=4,
+    return CloudFileError(
+        f"{path}: line {number} ({line.strip()!r}) is either pandas' header of column numbers or the point "
+        "(0, 1, 2), and the file does not say which: delete the line if it is a header, or put the "
+        "header line x,y,z above it if it is a point"
     )
-    return numbered
+
+
+def _comment_header(path: Path, lines: list[str], first_data: int) -> tuple[list[str], list[int]] | None:
+    """A whole-line comment just above the first data line that names all three axes
+    (``# y x z``, as ``numpy.savetxt(..., header="y x z")`` writes it): its names, and the
+    column order it gives (``[0, 1, 2]`` when it lists x, y, z in order). Other comments are
+    comments."""
+    above = lines[first_data - 2].strip() if first_data > 1 else ""
+    if not above.startswith("#"):
+        return None
+    text = above[1:]
+    tokens = _split(text, "," in text)
+    if len(tokens) != 3 or sorted(_axis_name(t) for t in tokens) != ["x", "y", "z"]:
+        return None
+    return tokens, _header_order(path, tokens) or [0, 1, 2]
 
 
 def _load_text(path: Path) -> np.ndarray:
@@ -111,7 +114,6 @@ def _load_text(path: Path) -> np.ndarray:
             "cloud is CSV, TXT or XYZ text in UTF-8, or .npy"
         )
     lines = text.splitlines()
-    ours = bool(lines) and lines[0].strip() == TEXT_HEADER.strip()  # save_cloud's .txt/.xyz
     # a "#" starts a comment anywhere on a line, as numpy's reader has it: the header and the
     # delimiter are decided on the data alone ("1 2 3 # first, in mm" was taken for a header
     # because of its comma, and the point was dropped without a word)
@@ -120,15 +122,23 @@ def _load_text(path: Path) -> np.ndarray:
         raise CloudFileError(f"{path}: the file is empty (no data lines)")
     first_comma = "," in numbered[0][1]
     first_tokens = _split(numbered[0][1], first_comma)
-    order = None
+    commented = _comment_header(path, lines, numbered[0][0])
+    header, order = commented if commented is not None else (first_tokens, None)
     if not any(_is_number(t) for t in first_tokens):
         numbered = numbered[1:]  # a header line: no numeric token at all (a malformed data line has some)
         if not numbered:
             raise CloudFileError(f"{path}: the file has a header but no data lines")
-        order = _header_order(path, first_tokens)
-    elif first_tokens == ["0", "1", "2"] and not ours and "#" not in lines[numbered[0][0] - 1]:
-        # (pandas writes no comments: "0,1,2 # the first point" is a point)
-        numbered = _column_number_header(path, numbered)
+        named = _header_order(path, first_tokens) or [0, 1, 2]
+        if commented is not None and named != order:
+            raise CloudFileError(
+                f"{path}: the comment {' '.join(header)} and the header {','.join(first_tokens)} name the "
+                "columns in different orders: keep the one that is right"
+            )
+        header, order = first_tokens, named
+    elif first_tokens == ["0", "1", "2"] and "#" not in "".join(lines[: numbered[0][0]]):
+        # pandas writes no comments: "# x y z" above it (save_cloud's .txt) or "0,1,2 # the
+        # first point" says the line is a point
+        raise _column_number_header(path, numbered[0][0], numbered[0][1])
     comma = "," in numbered[0][1]
     body = "\n".join(line for _, line in numbered)
     try:
@@ -141,12 +151,12 @@ def _load_text(path: Path) -> np.ndarray:
     if bad.size:
         shown_lines = shown(numbered[i][0] for i in bad)
         raise CloudFileError(f"{path}: NaN or infinite coordinates on {bad.size} line(s): {shown_lines}")
-    if order is None:
+    if order is None or order == [0, 1, 2]:
         return data
     columns = ", ".join(str(k + 1) for k in order[:2]) + f" and {order[2] + 1}"
     warnings.warn(
-        f"{path}: the header {', '.join(first_tokens)} names the columns in another order, so x, y "
-        f"and z were read from columns {columns} ({', '.join(first_tokens[k] for k in order)})",
+        f"{path}: the header {', '.join(header)} names the columns in another order, so x, y "
+        f"and z were read from columns {columns} ({', '.join(header[k] for k in order)})",
         CloudFileWarning,
         stacklevel=3,
     )
@@ -267,13 +277,14 @@ def load_cloud(path: str | os.PathLike[str]) -> np.ndarray:
     CloudFileError
         Missing, empty or unreadable file; wrong number of columns; non-numeric text;
         NaN or infinite coordinates (the lines are named), a ``.npy`` file that is not a
-        numeric array (object arrays are never unpickled).
+        numeric array (object arrays are never unpickled); a first line ``0,1,2`` that may
+        be pandas' header of column numbers or a point (no comment above says which).
 
     Warns
     -----
     CloudFileWarning
-        A first line ``0,1,2``, which pandas writes as a header of column numbers; a header
-        that names the axes in another order than x, y, z (the columns are reordered).
+        A header (or a comment line above the data such as ``# y x z``) that names the axes
+        in another order than x, y, z: the columns are reordered.
     """
     if not os.fspath(path):
         raise CloudFileError("no point-cloud file named: the file name is empty")
