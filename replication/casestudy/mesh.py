@@ -97,6 +97,8 @@ def check_height_field(points: np.ndarray, triangles: np.ndarray) -> tuple[np.nd
     if bad.size:
         t = int(bad[0])
         what = "has zero area (a vertical facet)" if signs[t] == 0 else "is clockwise while others are not"
+        if signs[t] == 0 and (why := _out_of_range(x, y, triangles[t])) is not None:
+            raise InputError(f"triangle {t} (vertices {triangles[t].tolist()}): {why}")
         raise InputError(
             f"triangle {t} (vertices {triangles[t].tolist()}) {what} in the x-y projection; {bad.size} such "
             "triangle(s): the jet model needs a height field z(x, y) with counter-clockwise triangles"
@@ -130,3 +132,32 @@ def surface_signature(points: np.ndarray, triangles: np.ndarray) -> str:
     rows = [sorted(map(tuple, tri)) for tri in corners.tolist()]
     rows.sort()
     return hashlib.sha256(np.asarray(rows, dtype="<f8").tobytes()).hexdigest()
+
+
+def _out_of_range(x: np.ndarray, y: np.ndarray, triangle: np.ndarray) -> str | None:
+    """Why a triangle of zero computed area is not vertical: its area over- or underflows float64.
+
+    The orientation test multiplies coordinate differences; at 1e-300 or 1e300 mm the product
+    is 0 or infinite, and the triangle read as a vertical facet. Rescaled by a power of two
+    (exact), a triangle that has an area shows it.
+    """
+    px, py = x[triangle], y[triangle]
+    with np.errstate(over="ignore", invalid="ignore"):
+        dx, dy = px[1:] - px[0], py[1:] - py[0]
+        scale = max(np.abs(dx).max(), np.abs(dy).max())
+    if not np.isfinite(scale):  # the differences themselves overflow: halve the coordinates first
+        px, py = px / 2.0, py / 2.0
+        dx, dy = px[1:] - px[0], py[1:] - py[0]
+        scale = max(np.abs(dx).max(), np.abs(dy).max())
+    if scale == 0:
+        return None
+    exponent = int(np.frexp(scale)[1])
+    dx, dy = np.ldexp(dx, -exponent), np.ldexp(dy, -exponent)
+    if dx[0] * dy[1] - dx[1] * dy[0] == 0:
+        return None  # vertical indeed
+    size = to_millimetres(float(max(np.abs(px).max(), np.abs(py).max(), scale)))
+    return (
+        f"its area in the x-y projection {'overflows' if exponent > 0 else 'underflows'} float64 (its "
+        f"sides are about {to_millimetres(scale):.3g} mm, coordinates up to {size:.3g} mm); the jet model "
+        "works in millimetres over a domain of tens of millimetres: rescale the cloud"
+    )

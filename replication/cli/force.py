@@ -33,9 +33,10 @@ the symmetry (splitter) plane, as in the paper's half-domain simulation. Lengths
 
 def _load(path: str) -> tuple[Any, Any, str, int]:
     """(points, triangles, description, merged points) of a cloud or surface file."""
-    from replication.errors import CloudFileError
+    from replication.errors import CloudFileError, DegenerateInputError
     from replication.io import CLOUD_SUFFIXES, SURFACE_FORMATS, load_cloud, read_surface
     from replication.surfaces import adt
+    from replication.surfaces.adt import DEPTH_HINT
 
     suffix = Path(path).suffix.lower()
     if suffix.lstrip(".") in SURFACE_FORMATS:
@@ -45,7 +46,11 @@ def _load(path: str) -> tuple[Any, Any, str, int]:
         known = ", ".join((*CLOUD_SUFFIXES, *(f".{f}" for f in SURFACE_FORMATS)))
         raise CloudFileError(f"cannot read {path!r}: use a point cloud or surface file ({known})")
     cloud = load_cloud(path)
-    surface = adt(cloud, depth="z")
+    try:
+        surface = adt(cloud, depth="z")
+    except DegenerateInputError as exc:  # the depth is the jet's axis z here: no --depth to try
+        why = str(exc).replace(DEPTH_HINT, "; the jet model needs a surface z(x, y) over an area of x-y")
+        raise DegenerateInputError(why) from exc
     what = f"{cloud.shape[0]} points -> ADT surface of {surface.n_triangles} triangles"
     return surface.points, surface.triangles, what, surface.n_merged
 

@@ -56,6 +56,10 @@ __all__ = [
     "triangle_polydata",
 ]
 
+#: The advice an ADT of too few distinct projected points ends with (a caller that fixes the
+#: depth axis, such as the jet model's ``force``, replaces it with its own).
+DEPTH_HINT = "; another --depth rule may help"
+
 AXES: tuple[str, str, str] = ("x", "y", "z")
 DEPTH_RULES: tuple[str, ...] = ("min", "max", "x", "y", "z")
 DEFAULT_TIE_RTOL = 1e-9
@@ -302,7 +306,7 @@ def adt(
             raise DegenerateInputError(why) from exc
         raise DegenerateInputError(
             f"{exc} (projection plane ({AXES[u_axis]}, {AXES[v_axis]}), depth axis "
-            f"{AXES[axis]}, rule {depth!r}; another --depth rule may help)"
+            f"{AXES[axis]}, rule {depth!r}{DEPTH_HINT})"
         ) from exc
     n = cloud.shape[0]
     if planar.duplicates.size == 0:  # every point is a vertex, in input order

@@ -130,6 +130,14 @@ def random_cloud(
         raise InputError(f"number of points must be a positive integer, got {n=!r}")
     gen = make_rng(rng)
     lo, hi = box.lower, box.upper
+    with np.errstate(over="ignore"):
+        wide = np.flatnonzero(~np.isfinite(hi - lo))
+    if wide.size:  # lo + (hi - lo) * u would be inf or NaN
+        k = int(wide[0])
+        raise InputError(
+            f"the box's {'xyz'[k]} side {lo[k]:g}..{hi[k]:g} is wider than float64's largest number "
+            f"({np.finfo(np.float64).max:.4g}): no point can be drawn in it"
+        )
     if step is None:
         return lo + (hi - lo) * gen.random((int(n), 3))
     columns = []

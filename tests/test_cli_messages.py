@@ -1,0 +1,74 @@
+"""Error messages that named the wrong cause or an option the command lacks."""
+
+import numpy as np
+import pytest
+
+from replication.cli import main
+from replication.errors import InputError
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def one_line(err, command):
+    return err.startswith(f"replication {command}: error: ") and err.count("\n") == 1
+
+
+@pytest.mark.parametrize(
+    ("rows", "match"),
+    [
+        ("0,0,0\n1,1,1\n2,2,2\n3,3,3\n", "are collinear"),
+        ("1,1,1\n1,1,1\n1,1,2\n", "need at least 3 distinct projected points"),
+    ],
+)
+def test_force_does_not_suggest_an_option_it_lacks(capsys, tmp_path, rows, match):
+    """`force` builds its ADT with depth z (the jet's axis): it said "another --depth rule may
+    help", an option `force` does not have; `adt` still says it."""
+    (tmp_path / "c.csv").write_text("x,y,z\n" + rows)
+    code, _, err = run(capsys, "force", tmp_path / "c.csv")
+    assert code == 1 and one_line(err, "force") and match in err, err
+    assert "--depth" not in err and "surface z(x, y) over an area" in err
+    code, _, err = run(capsys, "adt", tmp_path / "c.csv")
+    assert code == 1 and one_line(err, "adt") and "another --depth rule may help" in err, err
+
+
+@pytest.mark.parametrize(("scale", "word"), [(1e300, "overflows"), (1e-300, "underflows")])
+def test_force_on_extreme_coordinates_names_the_range_not_a_vertical_facet(capsys, tmp_path, scale, word):
+    """A random cloud at 1e300 or 1e-300 mm read as "zero area (a vertical facet)": its
+    triangles' areas over- or underflowed float64."""
+    np.save(tmp_path / "c.npy", np.random.default_rng(0).random((20, 3)) * scale)
+    code, _, err = run(capsys, "force", tmp_path / "c.npy", "--no-domain")
+    assert code == 1 and one_line(err, "force") and f"area in the x-y projection {word} float64" in err, err
+    assert "vertical facet" not in err and "rescale the cloud" in err
+
+
+def test_a_vertical_facet_is_still_named_as_such():
+    from replication.casestudy.mesh import check_height_field
+
+    points = np.array([[0.0, 0, 0], [1e-3, 0, 0], [2e-3, 0, 1e-3], [0, 1e-3, 0]])
+    with pytest.raises(InputError, match=r"has zero area \(a vertical facet\)"):
+        check_height_field(points, np.array([[0, 1, 2], [0, 1, 3]]))
+
+
+def test_a_box_wider_than_float64_is_named(capsys, tmp_path):
+    """`--box 0 1 0 1 -1e308 1e308` printed numpy's overflow warning, then blamed NaN coordinates."""
+    code, _, err = run(
+        capsys,
+        "adt",
+        "--random",
+        "20",
+        "--box",
+        "0",
+        "1",
+        "0",
+        "1",
+        "-1e308",
+        "1e308",
+        "-o",
+        tmp_path / "s.vtk",
+    )
+    assert code == 1 and one_line(err, "adt") and "z side -1e+308..1e+308 is wider than" in err, err
+    assert list(tmp_path.iterdir()) == []
