@@ -77,6 +77,19 @@ class _Version(argparse.Action):
         parser.exit()
 
 
+EPILOG = """\
+examples:
+  replication reproduce                       every report of the paper's results into reports/
+  replication adt cloud.csv -o surface.vtk    an ADT surface from your own point cloud
+  replication compare cloud.csv               ADT vs NURBS on a cloud: paired tests of the depths
+  replication force bucket.csv                the water jet's force on a surface
+  replication COMMAND --help                  a command's options, with examples
+
+Errors print one line (exit status 1; 2 for a misused option); --debug shows the traceback
+of an unexpected one.
+"""
+
+
 def build_parser(commands: Iterable[str] | None = None) -> argparse.ArgumentParser:
     """The argument parser; the full parsers of ``commands`` (default: every command).
 
@@ -91,6 +104,8 @@ def build_parser(commands: Iterable[str] | None = None) -> argparse.ArgumentPars
             "Reproduce 'adapted Delaunay triangulation' (ADT) surfaces from random point clouds, "
             "their comparison with NURBS, and the paper's water-jet case study."
         ),
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action=_Version, help="show program's version number and exit")
     parser.add_argument("--debug", action="store_true", help=DEBUG_HELP)

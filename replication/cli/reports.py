@@ -262,6 +262,36 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
+EPILOGS = {
+    "reproduce": f"""\
+examples:
+  replication reproduce                       every report, with the paper's settings, into {DEFAULT_DIR}/
+  replication reproduce --quick               a reduced run (a smoke test) into {QUICK_DIR}/
+  replication reproduce --output-dir mine     the paper's settings, written into mine/
+  replication reproduce --workers 1           the untimed work in this process only
+
+An interrupted run keeps the reports of the stages it finished, each consistent with its
+data; running the command again runs every stage anew.
+""",
+    "table1": f"""\
+examples:
+  replication table1                          Table 1 and Fig. 6 into {DEFAULT_DIR}/table1.md
+  replication table1 --quick                  a reduced run into {QUICK_DIR}/
+  replication table1 --output-dir mine --workers 1
+""",
+    "report": f"""\
+examples:
+  replication report                          redraw every report in {DEFAULT_DIR}/ from its data/
+  replication report --output-dir {QUICK_DIR}   the same for a quick run's reports
+  replication report --performance            merge asv's results (after `asv run`), draw performance.md
+  replication report --output-dir copy --performance --commits 10   other settings: a copy of {DEFAULT_DIR}/
+
+No experiment runs: the pages are drawn from the CSV and JSON files under DIR/data. A page
+that would differ only in the commit that rendered it is left as it is.
+""",
+}
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the table1, report and reproduce subcommands."""
     for name, func, helptext in (
@@ -274,6 +304,8 @@ def register(sub: argparse._SubParsersAction) -> None:
             description=helptext[0].upper() + helptext[1:] + ". Long stages show a progress bar on stderr. "
             f"Written into {DEFAULT_DIR}/ of a checkout of this project, the reports also refresh the "
             "headline block of its README.md.",
+            epilog=EPILOGS[name],
+            formatter_class=argparse.RawDescriptionHelpFormatter,
         )
         p.add_argument(
             "--quick",
@@ -306,6 +338,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "report",
         help="re-render the reports' markdown and figures from their saved data (no experiment is run)",
         description="Re-render the markdown and figures of every report from the data in DIR/data.",
+        epilog=EPILOGS["report"],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--output-dir", metavar="DIR", help=f"the reports directory (default: {DEFAULT_DIR}/)")
     p.add_argument(

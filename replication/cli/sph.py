@@ -326,6 +326,17 @@ def register(sub: argparse._SubParsersAction) -> None:
             'pip install ".[sph]") at several particle sizes and with two pressure solvers, and '
             "examine what the paper's SPH forces can be. Writes sph.md, its figures and data."
         ),
+        epilog=f"""\
+examples:
+  replication sph                             the study into {DEFAULT_DIR}/sph.md (minutes per simulation)
+  replication sph --quick                     coarse particles only, into {QUICK_DIR}/
+  replication sph --workers 1                 one simulation at a time
+  replication force bucket.csv --solver sph   one surface's force by SPH instead
+
+Each simulation runs in a child process with a time limit; a failed one is recorded with its
+reason, and the report says which.
+""",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(
         "--quick", action="store_true", help=f"coarse particles only (under a minute) into {QUICK_DIR}/"
