@@ -72,3 +72,19 @@ def test_a_box_wider_than_float64_is_named(capsys, tmp_path):
     )
     assert code == 1 and one_line(err, "adt") and "z side -1e+308..1e+308 is wider than" in err, err
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("argv", [["--executor", "dask"], ["--scheduler", "tcp://127.0.0.1:8786"]])
+def test_dask_missing_is_named_before_a_run_directory_is_made(capsys, tmp_path, monkeypatch, argv):
+    """Without dask, `casestudy --executor dask` made a run directory, printed how to resume
+    it, failed at the first generation and deleted the directory again."""
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "distributed" else real(name, *a)
+    )
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run(capsys, "casestudy", "--quick", "--run-dir", "runs/r", *argv)
+    assert code == 1 and one_line(err, "casestudy") and "pip install 'replication[dask]'" in err, err
+    assert out == "" and list(tmp_path.iterdir()) == []

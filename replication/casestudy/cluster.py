@@ -32,10 +32,22 @@ from collections.abc import Callable, Iterator
 from replication.casestudy.interrupts import sigint_ignored_by_children
 from replication.errors import ExecutorError, InputError
 
-__all__ = ["CONNECT_TIMEOUT_S", "check_scheduler_address", "dask_executor"]
+__all__ = ["CONNECT_TIMEOUT_S", "check_scheduler_address", "dask_executor", "require_dask"]
 
 #: Seconds to wait for a dask scheduler named by its address before giving up.
 CONNECT_TIMEOUT_S = 5.0
+
+
+#: What to install for the dask executor.
+DASK_HINT = "dask evaluation needs the optional extra: pip install 'replication[dask]'"
+
+
+def require_dask() -> None:
+    """Raise an InputError when dask.distributed is not installed (found, not imported: fast)."""
+    import importlib.util
+
+    if any(importlib.util.find_spec(name) is None for name in ("dask", "distributed")):
+        raise InputError(DASK_HINT)
 
 
 def check_scheduler_address(scheduler: str) -> str:
@@ -43,7 +55,7 @@ def check_scheduler_address(scheduler: str) -> str:
     try:
         from distributed.comm import resolve_address
     except ImportError as exc:  # pragma: no cover - depends on the optional extra
-        raise InputError("dask evaluation needs the optional extra: pip install 'replication[dask]'") from exc
+        raise InputError(DASK_HINT) from exc
 
     try:
         address = resolve_address(scheduler)  # the syntax, and the host name
@@ -118,7 +130,7 @@ def dask_executor(
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError as exc:  # pragma: no cover - depends on the optional extra
-        raise InputError("dask evaluation needs the optional extra: pip install 'replication[dask]'") from exc
+        raise InputError(DASK_HINT) from exc
     if scheduler:
         with _log_levels_restored(), _connect(scheduler) as client:
             yield from _dask_executor(client, on_interrupt, local=False)

@@ -157,8 +157,8 @@ def check_executor_options(kind: str, workers: int | None = None, scheduler: str
     InputError
         An unknown executor, a non-positive worker count, ``workers`` or ``scheduler`` with
         the serial executor, ``scheduler`` with the process pool, both ``workers`` and
-        ``scheduler`` (an existing cluster brings its own workers), or a scheduler address
-        that is malformed or names an unknown host.
+        ``scheduler`` (an existing cluster brings its own workers), a scheduler address
+        that is malformed or names an unknown host, or dask asked for and not installed.
     """
     if kind not in EXECUTORS:
         raise InputError(f"unknown executor {kind!r}; choose one of {EXECUTORS}")
@@ -179,6 +179,10 @@ def check_executor_options(kind: str, workers: int | None = None, scheduler: str
             "--workers starts a local cluster of that size; a cluster named by --scheduler "
             "brings its own workers: give one of them"
         )
+    if kind == "dask" or scheduler is not None:  # before a run directory is made, not at the first generation
+        from replication.casestudy.cluster import require_dask
+
+        require_dask()
     if scheduler is not None:
         from replication.casestudy.cluster import check_scheduler_address
 
