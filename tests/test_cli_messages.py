@@ -88,3 +88,50 @@ def test_dask_missing_is_named_before_a_run_directory_is_made(capsys, tmp_path, 
     code, out, err = run(capsys, "casestudy", "--quick", "--run-dir", "runs/r", *argv)
     assert code == 1 and one_line(err, "casestudy") and "pip install 'replication[dask]'" in err, err
     assert out == "" and list(tmp_path.iterdir()) == []
+
+
+def test_smaller_messages_say_what_is_wrong(capsys, tmp_path):
+    (tmp_path / "notes.txt").write_text("not a directory\n")
+    (tmp_path / "c.csv").write_text("x,y,z\n0,0,0\n0,1,0\n1,0.5,1\n0,0,2\n2,2,2\n")
+    # was: "output directory does not exist: notes.txt"
+    code, _, err = run(capsys, "adt", tmp_path / "c.csv", "-o", tmp_path / "notes.txt" / "s.vtk")
+    assert code == 1 and one_line(err, "adt") and "notes.txt is a file, not a directory" in err, err
+    # rows are counted from 0 (the file's lines from 1): said, as the lines are
+    code, _, err = run(capsys, "adt", tmp_path / "c.csv", "--duplicates", "raise")
+    assert code == 1 and one_line(err, "adt") and "(rows 0, 1, counted from 0)" in err, err
+    bad = np.random.default_rng(0).random((6, 3))
+    bad[3, 1] = np.nan
+    np.save(tmp_path / "nan.npy", bad)
+    code, _, err = run(capsys, "adt", tmp_path / "nan.npy")
+    assert code == 1 and one_line(err, "adt") and "1 row(s), counted from 0: 3" in err, err
+    # was: "sample_shape must be two integers of at least 2", an argument no user typed
+    for command, option in (("compare", "--samples"), ("nurbs", "--tessellation")):
+        with pytest.raises(SystemExit) as exc:
+            main([command, str(tmp_path / "c.csv"), option, "1x1"])
+        err = capsys.readouterr().err
+        assert (
+            exc.value.code == 2
+            and one_line(err, command)
+            and f"argument {option}: expected at least 2" in err
+        )
+
+
+def test_an_unparsable_first_line_is_named_not_taken_for_a_header(tmp_path):
+    """ "1;2;3" has no number a reader takes, so it was taken for a header and line 2 blamed."""
+    from replication.errors import CloudFileError
+    from replication.io import load_cloud
+
+    (tmp_path / "semi.csv").write_text("1;2;3\n4;5;6\n7;8;9\n")
+    with pytest.raises(CloudFileError, match=r"line 1 has 1 column\(s\), expected 3 \(x, y, z\): '1;2;3'"):
+        load_cloud(tmp_path / "semi.csv")
+    (tmp_path / "named.csv").write_text("x;y;z\n4,5,6\n7,8,9\n0,1,1\n")  # a header still has letters
+    assert load_cloud(tmp_path / "named.csv").shape == (3, 3)
+
+
+def test_a_line_break_in_a_file_name_stays_on_the_error_s_line(capsys, tmp_path):
+    code, _, err = run(capsys, "adt", tmp_path / "no\nsuch.csv")
+    assert code == 1 and one_line(err, "adt") and "no\\nsuch.csv" in err, err
+    with pytest.raises(SystemExit) as exc:
+        main(["adt", "--random", "5", "extra\nword", "more"])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and one_line(err, "adt"), err

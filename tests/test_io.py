@@ -385,7 +385,7 @@ def test_bad_npy_shapes(tmp_path):
     with pytest.raises(CloudFileError, match=r"shape \(n, 3\)"):
         load_cloud(tmp_path / "a.npy")
     np.save(tmp_path / "b.npy", np.array([[1.0, 2.0, np.nan]]))
-    with pytest.raises(CloudFileError, match=r"row\(s\): 0"):
+    with pytest.raises(CloudFileError, match=r"row\(s\), counted from 0: 0"):
         load_cloud(tmp_path / "b.npy")
 
 

@@ -142,6 +142,12 @@ def _interrupted(exc: BaseException) -> bool:
     return caused_by_interrupt(exc)
 
 
+def _escaped(text: str) -> str:
+    """An error message on one line: a line break inside it (a file name can hold one) is
+    written as ``\\n``, as Python writes it in a string."""
+    return text.replace("\r", "\\r").replace("\n", "\\n")
+
+
 def _one_line(exc: BaseException) -> str:
     """An unexpected exception as one line: its type and message, file names included."""
     text = " ".join(str(exc).split()) or "(no message)"
@@ -190,7 +196,7 @@ class _Parser(argparse.ArgumentParser):
     exit status stays argparse's 2, a usage error, against 1 for a failed command."""
 
     def error(self, message: str) -> NoReturn:
-        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+        self.exit(2, f"{self.prog}: error: {_escaped(message)} (see '{self.prog} --help')\n")
 
 
 def _unrecognized(parser: argparse.ArgumentParser, command: str, extra: list[str]) -> NoReturn:
@@ -220,7 +226,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return func(args)
     except ReplicationError as exc:
-        print(f"{name}: error: {exc}", file=sys.stderr)
+        print(f"{name}: error: {_escaped(str(exc))}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print(f"{name}: interrupted", file=sys.stderr)
@@ -236,7 +242,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.debug:
             raise
         refused = _refused(exc)
-        print(f"{name}: error: {refused if refused is not None else _unexpected(exc)}", file=sys.stderr)
+        text = refused if refused is not None else _unexpected(exc)
+        print(f"{name}: error: {_escaped(text)}", file=sys.stderr)
         return 1
 
 

@@ -86,6 +86,16 @@ def pair(text: str) -> tuple[int, int]:
     return a, b
 
 
+def samples(text: str) -> tuple[int, int]:
+    """argparse type: ``"50x50"`` -> (50, 50), at least 2 per direction (a grid of samples)."""
+    a, b = pair(text)
+    if a < 2 or b < 2:  # was: the library's "sample_shape must be ...", an argument no user typed
+        raise argparse.ArgumentTypeError(
+            f"expected at least 2 samples per direction like 50x50, got {text!r}"
+        )
+    return a, b
+
+
 def add_cloud_source(p: argparse.ArgumentParser) -> None:
     """INPUT or a generated cloud (--random N, --seed, --box, --step, --save-cloud)."""
     from replication.io import CLOUD_SUFFIXES

@@ -16,6 +16,7 @@ from replication.cli.common import (
     pair,
     probability,
     relay_warnings,
+    samples,
     warm_up,
 )
 from replication.cli.compare import EPILOG_COMPARE, cmd_compare
@@ -282,7 +283,7 @@ def register(sub: argparse._SubParsersAction) -> None:
             p.add_argument("--format", choices=NURBS_FORMATS, help="default: from the OUT suffix")
             p.add_argument(
                 "--tessellation",
-                type=pair,
+                type=samples,
                 default=(50, 50),
                 metavar="SUxSV",
                 help="parameter samples evaluated as part of the build (default 50x50)",
@@ -296,7 +297,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         else:
             p.add_argument(
                 "--samples",
-                type=pair,
+                type=samples,
                 metavar="SUxSV",
                 help="NURBS samples for pairing (a) (default: the control-net size)",
             )

@@ -53,6 +53,8 @@ def _check_output_path(path: Path) -> Path:
         via = f" (the symbolic link {given} points to {path})"
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
+        if parent.exists():  # "does not exist" was wrong for -o notes.txt/x.vtk
+            raise OutputError(f"cannot write {given}: {parent} is a file, not a directory{via}")
         raise OutputError(f"output directory does not exist: {parent}{via}")
     if path.is_dir():
         raise OutputError(f"output path is a directory: {given}{via}")

@@ -124,8 +124,10 @@ def _load_text(path: Path) -> np.ndarray:
     first_tokens = _split(numbered[0][1], first_comma)
     commented = _comment_header(path, lines, numbered[0][0])
     header, order = commented if commented is not None else (first_tokens, None)
-    if not any(_is_number(t) for t in first_tokens):
-        numbered = numbered[1:]  # a header line: no numeric token at all (a malformed data line has some)
+    if not any(_is_number(t) for t in first_tokens) and any(c.isalpha() for c in numbered[0][1]):
+        # a header line: names, no numeric token (a malformed data line such as "1;2;3" has no
+        # letter, and is reported as line 1, not taken for a header and line 2 blamed)
+        numbered = numbered[1:]
         if not numbered:
             raise CloudFileError(f"{path}: the file has a header but no data lines")
         named = _header_order(path, first_tokens) or [0, 1, 2]

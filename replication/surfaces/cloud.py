@@ -192,7 +192,9 @@ def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
         raise InputError(f"{name} is empty: need at least 3 points")
     bad = np.flatnonzero(~np.isfinite(arr).all(axis=1))
     if bad.size:
-        raise InputError(f"{name} has NaN or infinite coordinates in {bad.size} row(s): {shown(bad)}")
+        raise InputError(
+            f"{name} has NaN or infinite coordinates in {bad.size} row(s), counted from 0: {shown(bad)}"
+        )
     return arr
 
 

@@ -178,7 +178,8 @@ def apply_policy(
         shared = np.flatnonzero(counts[group] > 1)
         raise InputError(
             f"{shared.size} points share a projected ({un}, {vn}) position with another point "
-            f"(rows {shown(shared)}); choose a duplicate policy other than 'raise' to merge them"
+            f"(rows {shown(shared)}, counted from 0); choose a duplicate policy other than 'raise' to "
+            "merge them"
         )
     depth = np.asarray(depth, dtype=np.float64)
     if policy == "mean":
