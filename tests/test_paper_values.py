@@ -4,7 +4,14 @@ import pandas as pd
 import pytest
 
 from replication.errors import InputError
-from replication.experiments.paper import PAPER_CASESTUDY, PAPER_TABLE1, PaperValue, all_paper_values
+from replication.experiments.paper import (
+    PAPER_CASESTUDY,
+    PAPER_TABLE1,
+    PAPER_TABLE1_STATEMENTS,
+    PaperStatement,
+    PaperValue,
+    all_paper_values,
+)
 
 #: How a paper value was misquoted before (rounded, reformatted or padded by the CSV writer).
 MISQUOTES = ("1.38e+03", "5.91e+03", "9.6 MB", "21.960000", "19.079999", "0.0038000", "2,400 appears")
@@ -25,6 +32,9 @@ def test_a_quote_must_match_its_value():
         PaperValue("1376 bytes", 1380.0, "section 4")
     with pytest.raises(InputError, match="outer spaces"):
         PaperValue(" 306 bytes", 306.0, "section 4")
+    with pytest.raises(InputError, match="outer spaces"):
+        PaperStatement("the difference grows ", "section 4")
+    assert str(PAPER_TABLE1_STATEMENTS["similar"]).startswith("It can be concluded with 95% confidence")
 
 
 @pytest.mark.slow
@@ -35,6 +45,12 @@ def test_table1_report_and_csv_quote_the_paper_verbatim(quick_reports):
     for key, value in PAPER_TABLE1.items():
         assert value.quote in text, key
         assert value.quote in quoted, key  # the CSV cell is the quotation itself
+    # the worded claims (grows, similar, reduced) are quoted beside their verdicts, with no ratio
+    for key, statement in PAPER_TABLE1_STATEMENTS.items():
+        rows = claims[claims["paper"] == statement.quote]
+        assert not rows.empty and statement.quote in text, key
+        assert rows["ratio_ours_to_paper"].isna().all(), key
+    assert claims["paper"].notna().all()  # every claim row says what the paper says
     raw = (quick_reports / "data/table1_claims.csv").read_text()
     for bad in MISQUOTES:
         assert bad not in text and bad not in raw, bad

@@ -14,7 +14,14 @@ from dataclasses import dataclass
 
 from replication.errors import InputError
 
-__all__ = ["PaperValue", "PAPER_TABLE1", "PAPER_CASESTUDY", "all_paper_values"]
+__all__ = [
+    "PaperStatement",
+    "PaperValue",
+    "PAPER_TABLE1",
+    "PAPER_TABLE1_STATEMENTS",
+    "PAPER_CASESTUDY",
+    "all_paper_values",
+]
 
 _NUMBER = re.compile(r"-?\d+(?:\.\d+)?")
 
@@ -55,6 +62,30 @@ class PaperValue:
         return self.value
 
 
+@dataclass(frozen=True)
+class PaperStatement:
+    """A claim the paper makes in words, without a number to compare with ("the difference
+    grows ..."): quoted verbatim beside the verdict on it, with no ratio.
+
+    Attributes
+    ----------
+    quote : str
+        The paper's words exactly.
+    where : str
+        Where the paper says it.
+    """
+
+    quote: str
+    where: str
+
+    def __post_init__(self) -> None:
+        if not self.quote or self.quote != self.quote.strip():
+            raise InputError(f"a paper quotation must be text without outer spaces, got {self.quote!r}")
+
+    def __str__(self) -> str:
+        return self.quote
+
+
 def _v(quote: str, where: str, value: float | None = None) -> PaperValue:
     if value is None:
         value = float(quote.split()[0])
@@ -72,6 +103,22 @@ PAPER_TABLE1: dict[str, PaperValue] = {
     "size_ratio": _v("almost half", "section 5, item 1", 0.5),
     "speed_ratio": _v("almost 3 times faster", "section 5, item 2", 3.0),
     "deviation_pct": _v("under 5%", "section 4", 5.0),
+}
+
+#: Table 1's worded claims (section 4), beside the trend and similarity verdicts.
+PAPER_TABLE1_STATEMENTS: dict[str, PaperStatement] = {
+    "difference_grows": PaperStatement(
+        "the difference grows with the increase in the number of points", "section 4"
+    ),
+    "similar": PaperStatement(
+        "It can be concluded with 95% confidence that surfaces generated from ADT and NURBS are similar",
+        "section 4",
+    ),
+    "under_5_statistically": PaperStatement("the deviation is still under 5% statistically", "section 4"),
+    "deviation_reduced": PaperStatement(
+        "the deviation on the overlapping column has visually reduced with the increase in number of points",
+        "section 4",
+    ),
 }
 
 #: The case study (section 6).
