@@ -52,3 +52,12 @@ def test_a_page_that_differs_only_in_its_render_commit_is_kept(tmp_path, monkeyp
     fresh = tmp_path / "new.md"  # and a page not yet there is written
     markdown.write_report(fresh, old)
     assert fresh.read_text() == old
+
+
+def test_the_provenance_section_names_its_record_file():
+    from replication.report.markdown import provenance_section
+
+    record = {"command": "replication table1", "commit": "abc", "run_seconds": 1.0}
+    assert "data/table1_provenance.json" not in provenance_section(record)
+    text = provenance_section(record, "data/table1_provenance.json")
+    assert text.endswith("- The whole record, configuration included: `data/table1_provenance.json`")

@@ -125,3 +125,20 @@ def test_no_import_circle_in_the_command_line_package():
 
     circles = sorted(m for m in graph if reaches(m, m))
     assert circles == [], circles
+
+
+@pytest.mark.slow
+def test_every_data_file_is_named_by_a_report(quick_reports):
+    """Data no page points to cannot be found by a reader: table1_meshes/, the agreement table
+    and the provenance records were named by none."""
+    pages = {p.stem: p.read_text() for p in quick_reports.glob("*.md")}
+    everything = "\n".join(pages.values())
+    data = quick_reports / "data"
+    for path in sorted(data.iterdir()):
+        name = path.name
+        prefix = next((stem for stem in pages if name.startswith(f"{stem}_")), None)
+        named = (f"data/{name}/" if path.is_dir() else f"data/{name}") in everything or (
+            prefix is not None
+            and f"`_{name[len(prefix) + 1 :]}`" in pages[prefix]  # `_series.csv` beside data/...
+        )
+        assert named, name

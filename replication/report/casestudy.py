@@ -360,7 +360,7 @@ replication casestudy --run-dir DIR --resume    # continue an interrupted run
 replication report                  # re-render from data/ only
 ```
 
-{provenance_section(prov)}
+{provenance_section(prov, "data/casestudy_provenance.json")}
 """
     path = out / "casestudy.md"
     write_report(path, text)

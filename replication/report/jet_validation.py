@@ -217,6 +217,8 @@ deviation of the 1 ms means in the window; drift: the window's second half minus
 
 ## Does the model rank the surfaces like SPH?
 
+(data: `data/jet_validation_agreement.csv`)
+
 {table(agreement_rows(d), AGREEMENT_HEADER)}
 
 ![Model against SPH](figures/jet_validation_scatter.png)
@@ -235,7 +237,7 @@ replication validate-jet --from-cache    # re-render from the cache (seconds; fa
 replication validate-jet --quick         # three surfaces, coarse particles
 ```
 
-{provenance_section(prov)}
+{provenance_section(prov, "data/jet_validation_provenance.json")}
 """
     path = out / "jet_validation.md"
     write_report(path, text)

@@ -52,8 +52,9 @@ def frame_table(frame: pd.DataFrame, columns: dict[str, tuple[str, Callable[[Any
     return table(rows, [h for h, _ in columns.values()])
 
 
-def provenance_section(record: dict[str, Any]) -> str:
-    """How the report was made: command, commit, versions, machine, date, seeds, run time."""
+def provenance_section(record: dict[str, Any], saved_as: str | None = None) -> str:
+    """How the report was made: command, commit, versions, machine, date, seeds, run time;
+    ``saved_as``: the file of the record, under the reports directory (``data/table1_provenance.json``)."""
     versions = ", ".join(f"{k} {v}" for k, v in record.get("versions", {}).items() if v)
     commit = record.get("commit") or "unknown (not a git checkout)"
     if record.get("dirty"):
@@ -85,6 +86,8 @@ def provenance_section(record: dict[str, Any]) -> str:
     ]
     if (record.get("workers") or 1) > 1:
         lines.append(f"- Worker processes for the untimed work: {record['workers']} (the timings ran alone)")
+    if saved_as is not None:
+        lines.append(f"- The whole record, configuration included: `{saved_as}`")
     return "\n".join(lines)
 
 

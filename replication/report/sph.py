@@ -341,7 +341,7 @@ replication sph --quick         # coarse particles only, into reports-quick/
 replication force flat.csv --solver sph --particle-radius 0.75 --json   # one surface
 ```
 
-{provenance_section(prov)}
+{provenance_section(prov, "data/sph_provenance.json")}
 """
     path = out / "sph.md"
     write_report(path, text)

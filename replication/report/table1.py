@@ -433,7 +433,8 @@ Surfaces (rendered with {renderer}; ADT gold with edges, NURBS blue):
 
 {images}
 
-Sizes and counts (data: `data/table1_clouds.csv`, `data/table1_sizes.csv`):
+Sizes and counts (data: `data/table1_clouds.csv`, `data/table1_sizes.csv`; the files measured, ADT
+`.vtk` and NURBS `.smesh`, and the NURBS tessellation drawn, in `data/table1_meshes/`):
 
 {_sizes_table(d)}
 
@@ -545,7 +546,7 @@ replication table1 --quick    # a reduced run for smoke testing (under a minute)
 replication report            # re-render the markdown and figures from data/ only
 ```
 
-{provenance_section(prov)}
+{provenance_section(prov, "data/table1_provenance.json")}
 """
     path = out / "table1.md"
     write_report(path, text)
