@@ -42,7 +42,7 @@ def test_force_on_extreme_coordinates_names_the_range_not_a_vertical_facet(capsy
     np.save(tmp_path / "c.npy", np.random.default_rng(0).random((20, 3)) * scale)
     code, _, err = run(capsys, "force", tmp_path / "c.npy", "--no-domain")
     assert code == 1 and one_line(err, "force") and f"area in the x-y projection {word} float64" in err, err
-    assert "vertical facet" not in err and "rescale the cloud" in err
+    assert "vertical facet" not in err and "rescale the surface" in err
 
 
 def test_a_vertical_facet_is_still_named_as_such():
@@ -51,6 +51,25 @@ def test_a_vertical_facet_is_still_named_as_such():
     points = np.array([[0.0, 0, 0], [1e-3, 0, 0], [2e-3, 0, 1e-3], [0, 1e-3, 0]])
     with pytest.raises(InputError, match=r"has zero area \(a vertical facet\)"):
         check_height_field(points, np.array([[0, 1, 2], [0, 1, 3]]))
+    # on the diagonal y = 3x (exactly), where the rounded products of the sides are not zero
+    from fractions import Fraction
+
+    def collinear(x, y):  # exactly, in rational arithmetic
+        x, y = [Fraction(float(v)) for v in x], [Fraction(float(v)) for v in y]
+        return (x[1] - x[0]) * (y[2] - y[0]) == (x[2] - x[0]) * (y[1] - y[0])
+
+    rng = np.random.default_rng(0)
+    tried = 0
+    for scale in (1e-3, 2.0**-700, 2.0**700):
+        for _ in range(200):
+            k = rng.random(3) * scale
+            if not collinear(k, 3 * k):
+                continue  # 3x rounded: not exactly on the line
+            tried += 1
+            points = np.column_stack([np.append(k, k.min()), np.append(3 * k, 3 * k.max()), np.arange(4.0)])
+            with pytest.raises(InputError, match=r"has zero area \(a vertical facet\)"):
+                check_height_field(points, np.array([[0, 1, 2], [0, 1, 3]]))
+    assert tried > 50
 
 
 def test_a_box_wider_than_float64_is_named(capsys, tmp_path):

@@ -138,26 +138,33 @@ def _out_of_range(x: np.ndarray, y: np.ndarray, triangle: np.ndarray) -> str | N
     """Why a triangle of zero computed area is not vertical: its area over- or underflows float64.
 
     The orientation test multiplies coordinate differences; at 1e-300 or 1e300 mm the product
-    is 0 or infinite, and the triangle read as a vertical facet. Rescaled by a power of two
-    (exact), a triangle that has an area shows it.
+    is 0, infinite or NaN, and the triangle read as a vertical facet. Only where that can happen
+    (sides or coordinates beyond 2**±500) is the triangle tested again, exactly, on coordinates
+    rescaled by a power of two: a triangle that has an area then shows it. In range, a zero
+    area is a vertical facet, and None is returned.
     """
     px, py = x[triangle], y[triangle]
     with np.errstate(over="ignore", invalid="ignore"):
-        dx, dy = px[1:] - px[0], py[1:] - py[0]
-        scale = max(np.abs(dx).max(), np.abs(dy).max())
-    if not np.isfinite(scale):  # the differences themselves overflow: halve the coordinates first
-        px, py = px / 2.0, py / 2.0
-        dx, dy = px[1:] - px[0], py[1:] - py[0]
-        scale = max(np.abs(dx).max(), np.abs(dy).max())
-    if scale == 0:
+        dx, dy = px - px[0], py - py[0]
+        side = float(max(np.abs(dx).max(), np.abs(dy).max()))
+    big = float(max(np.abs(px).max(), np.abs(py).max()))
+    if side == 0 or (LOW < side < HIGH and big < HIGH):
         return None
-    exponent = int(np.frexp(scale)[1])
-    dx, dy = np.ldexp(dx, -exponent), np.ldexp(dy, -exponent)
-    if dx[0] * dy[1] - dx[1] * dy[0] == 0:
-        return None  # vertical indeed
-    size = to_millimetres(float(max(np.abs(px).max(), np.abs(py).max(), scale)))
+    # the coordinates (not their rounded differences) scaled by a power of two, exactly: the
+    # sides to about 1, or, where they overflowed, the coordinates (a side is at least a unit
+    # in the last place of the coordinates, so these stay below 2**53)
+    exponent = int(np.frexp(side if np.isfinite(side) else big)[1])
+    sx, sy = np.ldexp(px, -exponent), np.ldexp(py, -exponent)
+    if kernel("sheet_orientations")(sx, sy, np.array([[0, 1, 2]], dtype=np.int64))[0] == 0:
+        return None  # vertical at any scale
+    sides = f"its sides are about {to_millimetres(side):.3g} mm, " if np.isfinite(side) else ""
     return (
-        f"its area in the x-y projection {'overflows' if exponent > 0 else 'underflows'} float64 (its "
-        f"sides are about {to_millimetres(scale):.3g} mm, coordinates up to {size:.3g} mm); the jet model "
-        "works in millimetres over a domain of tens of millimetres: rescale the cloud"
+        f"its area in the x-y projection {'overflows' if side > 1 else 'underflows'} float64 ({sides}"
+        f"coordinates up to {to_millimetres(big):.3g} mm); the jet model works in millimetres over a "
+        "domain of tens of millimetres: rescale the surface"
     )
+
+
+#: Sides and coordinates between these bounds (2**-500, 2**500) keep the orientation test's
+#: products within float64's range.
+LOW, HIGH = 2.0**-500, 2.0**500
