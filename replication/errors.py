@@ -11,6 +11,7 @@ exit status) can catch one type. Errors about the caller's data or parameters ar
 from __future__ import annotations
 
 __all__ = [
+    "escaped",
     "shown",
     "shortened",
     "ReplicationError",
@@ -32,6 +33,12 @@ def shown(indices, limit: int = 10) -> str:
     """``"3, 7, 12, ..."``: the first ``limit`` indices for an error message."""
     items = [str(int(i)) for i in list(indices)[: limit + 1]]
     return ", ".join(items[:limit]) + (", ..." if len(items) > limit else "")
+
+
+def escaped(text: str) -> str:
+    """A message on one line: a line break or other control character inside it (a file name
+    can hold one) is written as Python writes it in a string (``\\n``, ``\\x0b``, ``\\u2028``)."""
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
 
 
 def shortened(name: object, head: int = 40, tail: int = 20) -> str:

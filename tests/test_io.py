@@ -255,9 +255,18 @@ def test_a_comment_line_naming_the_axes_is_a_header(tmp_path, header):
     from replication.errors import CloudFileWarning
 
     yxz = CLOUD[:, [1, 0, 2]]
-    np.savetxt(tmp_path / "c.txt", yxz, header=header.replace(" [mm]", "_mm"))
+    np.savetxt(tmp_path / "c.txt", yxz, header=header)
     with pytest.warns(CloudFileWarning, match=r"x, y and z were read from columns 2, 1 and 3"):
         np.testing.assert_array_equal(load_cloud(tmp_path / "c.txt"), CLOUD)
+    # a blank line between the comment and the data does not matter (it was ignored, silently)
+    text = (tmp_path / "c.txt").read_text()
+    (tmp_path / "gap.txt").write_text(text.replace("\n", "\n\n", 1))
+    with pytest.warns(CloudFileWarning, match=r"columns 2, 1 and 3"):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "gap.txt"), CLOUD)
+    # nor does a label header under it (east,north,height names no axis)
+    (tmp_path / "label.txt").write_text(text.replace("\n", "\neast north height\n", 1))
+    with pytest.warns(CloudFileWarning, match=r"columns 2, 1 and 3"):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "label.txt"), CLOUD)
     np.savetxt(tmp_path / "in_order.txt", CLOUD, header="x y z")  # no reordering, no warning
     np.testing.assert_array_equal(load_cloud(tmp_path / "in_order.txt"), CLOUD)
 
@@ -274,6 +283,9 @@ def test_a_comment_and_a_header_that_disagree_are_refused(tmp_path):
     (tmp_path / "c.csv").write_text("# y x z\nx,y,z\n0,1.5,-2\n3,4.25,5\n")
     with pytest.raises(CloudFileError, match="name the columns in different orders"):
         load_cloud(tmp_path / "c.csv")
+    (tmp_path / "units.txt").write_text("y [mm] x (mm) z [mm]\n1.5 0 -2\n4.25 3 5\n0.5 1 1\n")
+    with pytest.warns(UserWarning, match="columns 2, 1 and 3"):  # was: six names, read in file order
+        np.testing.assert_array_equal(load_cloud(tmp_path / "units.txt")[0], [0, 1.5, -2])
     (tmp_path / "same.csv").write_text("# y x z\ny,x,z\n1.5,0,-2\n4.25,3,5\n0.5,1,1\n")
     with pytest.warns(UserWarning, match="columns 2, 1 and 3"):
         np.testing.assert_array_equal(load_cloud(tmp_path / "same.csv")[0], [0, 1.5, -2])

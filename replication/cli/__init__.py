@@ -22,7 +22,7 @@ import sys
 from collections.abc import Callable, Iterable, Sequence
 from typing import NoReturn
 
-from replication.errors import ReplicationError, shortened
+from replication.errors import ReplicationError, escaped, shortened
 
 __all__ = ["COMMANDS", "build_parser", "main", "run"]
 
@@ -142,12 +142,6 @@ def _interrupted(exc: BaseException) -> bool:
     return caused_by_interrupt(exc)
 
 
-def _escaped(text: str) -> str:
-    """An error message on one line: a line break inside it (a file name can hold one) is
-    written as ``\\n``, as Python writes it in a string."""
-    return text.replace("\r", "\\r").replace("\n", "\\n")
-
-
 def _one_line(exc: BaseException) -> str:
     """An unexpected exception as one line: its type and message, file names included."""
     text = " ".join(str(exc).split()) or "(no message)"
@@ -196,7 +190,7 @@ class _Parser(argparse.ArgumentParser):
     exit status stays argparse's 2, a usage error, against 1 for a failed command."""
 
     def error(self, message: str) -> NoReturn:
-        self.exit(2, f"{self.prog}: error: {_escaped(message)} (see '{self.prog} --help')\n")
+        self.exit(2, f"{self.prog}: error: {escaped(message)} (see '{self.prog} --help')\n")
 
 
 def _unrecognized(parser: argparse.ArgumentParser, command: str, extra: list[str]) -> NoReturn:
@@ -226,7 +220,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return func(args)
     except ReplicationError as exc:
-        print(f"{name}: error: {_escaped(str(exc))}", file=sys.stderr)
+        print(f"{name}: error: {escaped(str(exc))}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print(f"{name}: interrupted", file=sys.stderr)
@@ -243,7 +237,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         refused = _refused(exc)
         text = refused if refused is not None else _unexpected(exc)
-        print(f"{name}: error: {_escaped(text)}", file=sys.stderr)
+        print(f"{name}: error: {escaped(text)}", file=sys.stderr)
         return 1
 
 

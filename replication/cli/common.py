@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from replication.errors import DuplicatePointsWarning, InputError
+from replication.errors import DuplicatePointsWarning, InputError, escaped
 
 __all__ = [
     "add_cloud_source",
@@ -219,7 +219,7 @@ def relay_warnings() -> Iterator[list[warnings.WarningMessage]]:
         finally:
             for w in caught:
                 if not issubclass(w.category, DuplicatePointsWarning):
-                    print(f"warning: {w.message}", file=sys.stderr)
+                    print(f"warning: {escaped(str(w.message))}", file=sys.stderr)
 
 
 @contextlib.contextmanager

@@ -21,7 +21,7 @@ DEFAULT_ASV_RESULTS = ".asv/results"
 #: How many recent commits the committed performance.md shows (``report --commits``).
 DEFAULT_COMMITS = 5
 #: The markdown files ``replication report`` may write.
-RENDERED = ("table1.md", "sph.md", "casestudy.md", "performance.md", "index.md")
+RENDERED = ("table1.md", "sph.md", "jet_validation.md", "casestudy.md", "performance.md", "index.md")
 
 
 def _run_table1(out: Path, quick: bool, command: str, workers: int | None = None) -> Path:
@@ -168,6 +168,10 @@ def _cmd_report(args: argparse.Namespace) -> int:
     written_dirs = ("figures", "data") if results is not None else ("figures",)
     check_report_dir(out, "--output-dir" if args.output_dir else "the reports directory", written_dirs)
     readme = _check_readme(args.readme, out) if args.readme else None
+    from replication.cli.outputs import checkout_readme
+
+    # what the files were, to say which stayed as they were
+    before = _contents([*(out / name for name in RENDERED), *filter(None, (readme, checkout_readme(out)))])
     written = []
     if args.performance:
         from replication.report.performance import render_performance
@@ -199,8 +203,20 @@ def _cmd_report(args: argparse.Namespace) -> int:
     if readme is not None and not any(same_file(readme, path) for path in finished):
         written.append(update_readme(readme, out))
     for path in dict.fromkeys(written):  # a README filled twice (headline, speed) is named once
-        print(f"wrote {path}")
+        kept = before.get(Path(path).resolve()) == _contents([path]).get(Path(path).resolve())
+        print(f"unchanged {path}" if kept else f"wrote {path}")
     return 0
+
+
+def _contents(paths: list[Path]) -> dict[Path, bytes]:
+    """The bytes of those of ``paths`` that are files, by resolved path."""
+    found = {}
+    for path in paths:
+        try:
+            found[Path(path).resolve()] = Path(path).read_bytes()
+        except OSError:
+            continue
+    return found
 
 
 STAGES = (
@@ -268,10 +284,11 @@ examples:
   replication reproduce                       every report, with the paper's settings, into {DEFAULT_DIR}/
   replication reproduce --quick               a reduced run (a smoke test) into {QUICK_DIR}/
   replication reproduce --output-dir mine     the paper's settings, written into mine/
-  replication reproduce --workers 1           the untimed work in this process only
+  replication reproduce --workers 1           one task at a time (SPH simulations still in a child process)
 
 An interrupted run keeps the reports of the stages it finished, each consistent with its
-data; running the command again runs every stage anew.
+data; running the command again runs every stage anew. An interrupted case study also keeps
+its checkpoints and prints the `replication casestudy ... --resume` that finishes it.
 """,
     "table1": f"""\
 examples:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import io
 import math
 import os
+import re
 import warnings
 from pathlib import Path
 
@@ -82,8 +83,8 @@ def _column_number_header(path: Path, number: int, line: str) -> CloudFileError:
     """
     return CloudFileError(
         f"{path}: line {number} ({line.strip()!r}) is either pandas' header of column numbers or the point "
-        "(0, 1, 2), and the file does not say which: delete the line if it is a header, or put the "
-        "header line x,y,z above it if it is a point"
+        "(0, 1, 2), and the file does not say which: delete the line if it is a header, or put a "
+        "comment line such as '# x y z' above it if it is a point"
     )
 
 
@@ -92,14 +93,25 @@ def _comment_header(path: Path, lines: list[str], first_data: int) -> tuple[list
     (``# y x z``, as ``numpy.savetxt(..., header="y x z")`` writes it): its names, and the
     column order it gives (``[0, 1, 2]`` when it lists x, y, z in order). Other comments are
     comments."""
-    above = lines[first_data - 2].strip() if first_data > 1 else ""
-    if not above.startswith("#"):
+    above = next((line.strip() for line in reversed(lines[: first_data - 1]) if line.strip()), "")
+    if not above.startswith("#"):  # (blank lines between it and the data do not matter)
         return None
-    text = above[1:]
-    tokens = _split(text, "," in text)
+    tokens = _header_tokens(above[1:])
     if len(tokens) != 3 or sorted(_axis_name(t) for t in tokens) != ["x", "y", "z"]:
         return None
     return tokens, _header_order(path, tokens) or [0, 1, 2]
+
+
+def _header_tokens(text: str) -> list[str]:
+    """The names of a header line; in a whitespace-separated one, a unit in brackets belongs to
+    the name before it (``y [mm] x [mm] z [mm]`` names three columns, not six)."""
+    if "," in text:
+        return _split(text, True)
+    return _UNIT.sub("", text).split()
+
+
+#: A unit in brackets or parentheses after a name, with the white space before it.
+_UNIT = re.compile(r"\s*(\[[^\]]*\]|\([^)]*\))")
 
 
 def _load_text(path: Path) -> np.ndarray:
@@ -127,10 +139,13 @@ def _load_text(path: Path) -> np.ndarray:
     if not any(_is_number(t) for t in first_tokens) and any(c.isalpha() for c in numbered[0][1]):
         # a header line: names, no numeric token (a malformed data line such as "1;2;3" has no
         # letter, and is reported as line 1, not taken for a header and line 2 blamed)
+        first_tokens = _header_tokens(numbered[0][1])
         numbered = numbered[1:]
         if not numbered:
             raise CloudFileError(f"{path}: the file has a header but no data lines")
         named = _header_order(path, first_tokens) or [0, 1, 2]
+        if commented is not None and not any(_axis_name(t) in ("x", "y", "z") for t in first_tokens):
+            named = order  # a label header (east,north,height) under a comment naming the axes
         if commented is not None and named != order:
             raise CloudFileError(
                 f"{path}: the comment {' '.join(header)} and the header {','.join(first_tokens)} name the "
