@@ -467,10 +467,17 @@ except Exception as error:
 def test_an_orphaned_worker_that_swallows_the_signal_still_ends():
     """The SystemExit that SIGTERM raises in an orphaned worker can be caught (concurrent.futures
     catches everything while it sends a result back, and so may a task): the worker then
-    waited for its next task forever. It now ends ORPHAN_GRACE seconds after its parent."""
+    waited for its next task forever. It now ends ORPHAN_GRACE seconds after its parent.
+
+    The grace is shortened to 1 s here (the forked worker inherits the module's value, which the
+    watch reads when its parent has gone): the test waited 5 s doing nothing. A worker that did
+    not end after its grace would still outlive the 20 s the test waits for it."""
     script = """
 import os, time
+from replication.casestudy import interrupts
 from replication.casestudy.evaluate import executor
+
+interrupts.ORPHAN_GRACE = 1.0
 
 def stubborn():
     print(os.getpid(), flush=True)
