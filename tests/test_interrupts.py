@@ -311,14 +311,36 @@ def test_abandoning_a_pool_kills_a_worker_that_does_not_unwind(tmp_path):
         future.result(timeout=20)
 
 
-_CTRL_C_DURING_THE_MESSAGE = """
-import functools, time
-from replication.casestudy import evaluate
-from replication.casestudy.evaluate import executor
+def test_an_abandoned_worker_ends_once_its_task_has_unwound(tmp_path):
+    """A pool's worker loop takes the SystemExit of SIGTERM for its task's result and takes the
+    next call: workers went on to queued work, or waited for more, until killed after the grace
+    (5 s on every second Ctrl-C). They now end by themselves, and start nothing else."""
+    import concurrent.futures as cf
 
-# the worker swallows the SystemExit that SIGTERM raises in its task (concurrent.futures catches
-# it) and is killed after the grace: 0.5 s, not the default 5 s, which the test spent idle
-evaluate._abandon = functools.partial(evaluate._abandon, grace=0.5)
+    import workerfaults
+    from replication.casestudy.evaluate import _abandon, worker_initializer
+    from replication.casestudy.interrupts import quiet_worker_context
+
+    pool = cf.ProcessPoolExecutor(
+        2, mp_context=quiet_worker_context(), initializer=worker_initializer, initargs=(os.getpid(),)
+    )
+    started, unwound = tmp_path / "started", tmp_path / "unwound"
+    futures = [pool.submit(workerfaults.unwinds_slowly, str(started), str(unwound), 600.0) for _ in range(6)]
+    assert _wait_for(lambda: len(list(tmp_path.glob("started-*"))) == 2)
+    processes = list(pool._processes.values())
+    _abandon(pool)  # the default grace
+    # each ended by itself (SystemExit(128 + SIGTERM)), not killed (-SIGKILL) after the grace
+    assert sorted(p.exitcode for p in processes) == [128 + signal.SIGTERM] * 2
+    assert len(list(tmp_path.glob("unwound-*"))) == 2  # each task's finally ran
+    assert len(list(tmp_path.glob("started-*"))) == 2  # and no queued task started
+    for future in futures:
+        with contextlib.suppress(cf.CancelledError, cf.process.BrokenProcessPool, SystemExit):
+            future.result(timeout=20)
+
+
+_CTRL_C_DURING_THE_MESSAGE = """
+import time
+from replication.casestudy.evaluate import executor
 
 def second_ctrl_c():  # the user presses Ctrl-C again as the command says that it waits
     raise KeyboardInterrupt

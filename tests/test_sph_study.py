@@ -39,13 +39,8 @@ def test_max_parallel_must_be_a_positive_integer(bad):
 
 
 _CTRL_C_ABANDONS = """
-import functools, sys, time
-from replication.casestudy import evaluate
+import sys, time
 from replication.casestudy.evaluate import executor
-
-# the workers swallow the SystemExit that SIGTERM raises in their tasks (concurrent.futures
-# catches it) and are killed after the grace: 0.5 s, not the default 5 s, which the test spent idle
-evaluate._abandon = functools.partial(evaluate._abandon, grace=0.5)
 
 try:
     with executor("process", workers=2, abandon_on_interrupt=True) as pool:

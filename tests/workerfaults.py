@@ -109,3 +109,15 @@ def blocked_in_c(marker, seconds):
     pathlib.Path(f"{marker}.part").replace(marker)  # whole or absent: read as soon as it exists
     time.sleep(seconds)
     return seconds
+
+
+def unwinds_slowly(started, unwound, seconds):
+    """Say the task started (a file per task), sleep, and say so when SIGTERM unwinds it."""
+    import time
+    from pathlib import Path
+
+    Path(f"{started}-{os.getpid()}-{time.monotonic_ns()}").touch()
+    try:
+        time.sleep(seconds)
+    finally:
+        Path(f"{unwound}-{os.getpid()}").touch()

@@ -172,19 +172,46 @@ def sigint_ignored_by_children() -> Iterator[None]:
 
 
 def exit_on_terminate() -> None:
-    """Worker initializer: SIGTERM raises :class:`SystemExit`, so the worker unwinds.
+    """Worker initializer: SIGTERM raises :class:`SystemExit`, so the worker unwinds, and then ends.
 
     Python's default for SIGTERM ends the process at once, skipping every ``finally``; a
     worker waiting for an SPH simulation's child process would leave that child running
     (it has a session of its own, see :mod:`.sph.process`). Raising instead runs the
     ``finally`` that kills the child. The parent terminates workers only to abandon work
     under way (a second Ctrl-C, :func:`.evaluate.executor`).
+
+    A process pool's worker loop catches the exception of its task (it is the task's result)
+    and takes the next one: the worker went on to queued work, or waited for more, until the
+    parent killed it after its grace (5 s on every second Ctrl-C). Called from that loop (as a
+    pool's initializer), this also makes the worker's next take from its queue of calls raise
+    the same exit, so the worker ends as soon as its task has unwound, and starts no other.
     """
+    calls = _pool_call_queue()
 
     def _exit(signum: int, frame: FrameType | None) -> None:
+        if calls is not None:
+
+            def refuse(*args: object, **kwargs: object) -> None:
+                raise SystemExit(128 + signum)
+
+            calls.get = refuse  # this worker's own queue object: the next take ends the worker
         raise SystemExit(128 + signum)
 
     signal.signal(signal.SIGTERM, _exit)
+
+
+def _pool_call_queue() -> object | None:
+    """The queue a ``concurrent.futures`` process-pool worker takes its calls from, when called
+    (in its initializer) from that worker's loop; None elsewhere."""
+    frame = sys._getframe(1)
+    while frame is not None:
+        if frame.f_code.co_name == "_process_worker" and frame.f_globals.get("__name__") == (
+            "concurrent.futures.process"
+        ):
+            calls = frame.f_locals.get("call_queue")
+            return calls if callable(getattr(calls, "get", None)) else None
+        frame = frame.f_back
+    return None
 
 
 def _exists(pid: int) -> bool:
