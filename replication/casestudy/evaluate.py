@@ -327,8 +327,8 @@ def _abandon(pool: cf.ProcessPoolExecutor, grace: float = ABANDON_GRACE) -> None
     """End every worker of ``pool`` for certain, each first killing the simulation it ran.
 
     SIGTERM makes a worker unwind (:func:`.interrupts.exit_on_terminate`), which kills the
-    driver of its simulation (a session of its own). The pool's worker loop catches that
-    exit, so a worker may then wait for more work: after ``grace`` seconds it is killed.
+    driver of its simulation (a session of its own), and then end without taking another
+    call. A worker whose task swallows that exit is killed after ``grace`` seconds.
     ``shutdown`` is not called again: after an interrupted one, the pool's management thread
     may have closed its handles; it ends by itself once the workers are gone.
     """
