@@ -338,6 +338,33 @@ def test_an_abandoned_worker_ends_once_its_task_has_unwound(tmp_path):
             future.result(timeout=20)
 
 
+def test_a_second_sigterm_does_not_cut_a_worker_s_unwinding_short(tmp_path):
+    """When one worker ends, the pool's manager terminates the others again: a second
+    SystemExit raised inside the first one's finally would skip the rest of it (the kill of
+    an SPH simulation's child)."""
+    import concurrent.futures as cf
+
+    import workerfaults
+    from replication.casestudy.evaluate import worker_initializer
+    from replication.casestudy.interrupts import quiet_worker_context
+
+    pool = cf.ProcessPoolExecutor(
+        1, mp_context=quiet_worker_context(), initializer=worker_initializer, initargs=(os.getpid(),)
+    )
+    started, unwound = tmp_path / "started", tmp_path / "unwound"
+    future = pool.submit(workerfaults.unwinds_slowly, str(started), str(unwound), 600.0, 1.0)
+    assert _wait_for(lambda: any(tmp_path.glob("started-*")))
+    (process,) = pool._processes.values()
+    process.terminate()
+    time.sleep(0.3)  # inside the finally now
+    process.terminate()
+    process.join(30)
+    assert process.exitcode == 128 + signal.SIGTERM and len(list(tmp_path.glob("unwound-*"))) == 1
+    with contextlib.suppress(cf.process.BrokenProcessPool, SystemExit):
+        future.result(timeout=20)
+    pool.shutdown(wait=True)
+
+
 _CTRL_C_DURING_THE_MESSAGE = """
 import time
 from replication.casestudy.evaluate import executor

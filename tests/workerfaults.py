@@ -111,7 +111,7 @@ def blocked_in_c(marker, seconds):
     return seconds
 
 
-def unwinds_slowly(started, unwound, seconds):
+def unwinds_slowly(started, unwound, seconds, unwinding=0.0):
     """Say the task started (a file per task), sleep, and say so when SIGTERM unwinds it."""
     import time
     from pathlib import Path
@@ -120,4 +120,5 @@ def unwinds_slowly(started, unwound, seconds):
     try:
         time.sleep(seconds)
     finally:
+        time.sleep(unwinding)  # a simulation's child being killed takes a moment
         Path(f"{unwound}-{os.getpid()}").touch()

@@ -185,10 +185,14 @@ def exit_on_terminate() -> None:
     parent killed it after its grace (5 s on every second Ctrl-C). Called from that loop (as a
     pool's initializer), this also makes the worker's next take from its queue of calls raise
     the same exit, so the worker ends as soon as its task has unwound, and starts no other.
+    Only the first SIGTERM is taken: the parent kills a worker that has not ended in its grace.
     """
     calls = _pool_call_queue()
 
     def _exit(signum: int, frame: FrameType | None) -> None:
+        # once: the pool's manager terminates the other workers again when one ends, and a
+        # second exit raised inside the first one's finally would skip what is left of it
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
         if calls is not None:
 
             def refuse(*args: object, **kwargs: object) -> None:
