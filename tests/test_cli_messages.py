@@ -2,19 +2,10 @@
 
 import numpy as np
 import pytest
+from test_cli_errors import one_line, run
 
 from replication.cli import main
 from replication.errors import InputError
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def one_line(err, command):
-    return err.startswith(f"replication {command}: error: ") and err.count("\n") == 1
 
 
 @pytest.mark.parametrize(
