@@ -12,7 +12,14 @@ from typing import Any
 
 from replication.cli.casestudy import plan_casestudy, run_and_report
 from replication.cli.common import positive_int, say_when_publishing_waits
-from replication.cli.outputs import DEFAULT_DIR, QUICK_DIR, TABLE1_SUBDIRS, finish_reports, planned_output_dir
+from replication.cli.outputs import (
+    DEFAULT_DIR,
+    QUICK_DIR,
+    TABLE1_SUBDIRS,
+    checkout_readme,
+    finish_reports,
+    planned_output_dir,
+)
 from replication.cli.progress import progress_bar
 from replication.kernels import release_threads, warm_up
 
@@ -126,7 +133,6 @@ def _check_readme(readme: str, out: Path) -> Path:
 
 def _fill_speed_block(readme: Path | None, out: Path) -> list[Path]:
     """The README's speed block from the asv archive: ``--readme``, or a checkout's README."""
-    from replication.cli.outputs import checkout_readme
     from replication.report.index import fill_block, has_block
     from replication.report.performance import speed_table
     from replication.report.speed_goals import END, START
@@ -168,8 +174,6 @@ def _cmd_report(args: argparse.Namespace) -> int:
     written_dirs = ("figures", "data") if results is not None else ("figures",)
     check_report_dir(out, "--output-dir" if args.output_dir else "the reports directory", written_dirs)
     readme = _check_readme(args.readme, out) if args.readme else None
-    from replication.cli.outputs import checkout_readme
-
     # what the files were, to say which stayed as they were
     before = _contents([*(out / name for name in RENDERED), *filter(None, (readme, checkout_readme(out)))])
     written = []
