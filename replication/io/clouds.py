@@ -144,14 +144,14 @@ def _load_text(path: Path) -> np.ndarray:
         if not numbered:
             raise CloudFileError(f"{path}: the file has a header but no data lines")
         named = _header_order(path, first_tokens) or [0, 1, 2]
-        if commented is not None and not any(_axis_name(t) in ("x", "y", "z") for t in first_tokens):
-            named = order  # a label header (east,north,height) under a comment naming the axes
-        if commented is not None and named != order:
-            raise CloudFileError(
-                f"{path}: the comment {' '.join(header)} and the header {','.join(first_tokens)} name the "
-                "columns in different orders: keep the one that is right"
-            )
-        header, order = first_tokens, named
+        labels = not any(_axis_name(t) in ("x", "y", "z") for t in first_tokens)
+        if commented is None or not labels:  # a label header (east,north,height) leaves the comment's order
+            if commented is not None and named != order:
+                raise CloudFileError(
+                    f"{path}: the comment {' '.join(header)} and the header {','.join(first_tokens)} name "
+                    "the columns in different orders: keep the one that is right"
+                )
+            header, order = first_tokens, named
     elif first_tokens == ["0", "1", "2"] and "#" not in "".join(lines[: numbered[0][0]]):
         # pandas writes no comments: "# x y z" above it (save_cloud's .txt) or "0,1,2 # the
         # first point" says the line is a point
