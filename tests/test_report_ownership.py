@@ -142,15 +142,3 @@ def test_every_data_file_is_named_by_a_report(quick_reports):
             and f"`_{name[len(prefix) + 1 :]}`" in pages[prefix]  # `_series.csv` beside data/...
         )
         assert named, name
-
-
-@pytest.mark.slow
-def test_report_says_which_pages_it_left_as_they_were(capsys, quick_reports_copy):
-    """`replication report` said "wrote" of every page, also of those it left untouched."""
-    assert main(["report", "--output-dir", str(quick_reports_copy)]) == 0
-    capsys.readouterr()
-    pages = {p: p.read_bytes() for p in quick_reports_copy.glob("*.md")}
-    assert main(["report", "--output-dir", str(quick_reports_copy)]) == 0
-    out = capsys.readouterr().out
-    assert "wrote" not in out and out.count("unchanged ") == len(pages) >= 3, out
-    assert {p: p.read_bytes() for p in quick_reports_copy.glob("*.md")} == pages

@@ -104,9 +104,15 @@ def test_report_rerenders_from_data_alone(quick_reports_copy, monkeypatch, capsy
 
     monkeypatch.setattr(experiment, "run_table1", forbidden)
     figures = {p.name: p.read_bytes() for p in (copy / "figures").iterdir()}
+    pages = {p: p.read_bytes() for p in copy.glob("*.md")}
     assert main(["report", "--output-dir", str(copy)]) == 0
     assert (copy / "table1.md").read_text() == before
-    assert "table1.md" in capsys.readouterr().out
+    # every page re-rendered from the data is the page reproduce wrote, and `report` says it
+    # left each as it was (it said "wrote" of every page, also of those it left untouched)
+    out = capsys.readouterr().out
+    assert {p: p.read_bytes() for p in copy.glob("*.md")} == pages
+    assert "wrote" not in out and out.count("unchanged ") == len(pages) >= 3, out
+    assert f"unchanged {copy / 'table1.md'}" in out
     # every report's figures drawn again, here in one process, are the files reproduce drew
     # (on its workers): test_casestudy_report.py compares a two-process render with those
     redrawn = {p.name: p.read_bytes() for p in (copy / "figures").iterdir()}
