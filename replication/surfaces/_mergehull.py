@@ -19,8 +19,10 @@ vertical (orientations do not change under rotation):
    no candidate is valid.
 3. **Flip.** Lawson's flip algorithm, seeded with the edges of the new triangles, makes every
    edge locally Delaunay again; by the Delaunay lemma the result is the Delaunay
-   triangulation. Flips happen only where an edge is *strictly* illegal (exact in-circle
-   test), so they terminate, and only near the cut.
+   triangulation. The in-circle tests are exact, with co-circular points decided by a
+   symbolic perturbation (:func:`._predicates.incircle_perturbed`), so the flips
+   terminate, happen only near the cut, and give the one Delaunay triangulation of the
+   perturbed points: the same triangles as one block would, whatever the cut.
 
 Slots for the new triangles come from the unused capacity of the two sides (a side of m
 points with a hull of h vertices fills 2 m - 2 - h of its 2 m - 5 slots) plus a few spare
@@ -34,7 +36,7 @@ import numpy as np
 from numba import njit
 
 from replication import _numbacache
-from replication.surfaces._predicates import incircle, orient
+from replication.surfaces._predicates import incircle_perturbed, orient
 from replication.surfaces._sweephull import legalize, link
 
 __all__ = ["SPARE_SLOTS", "compact", "finish", "grown", "hull_cycle", "merge"]
@@ -138,8 +140,10 @@ def merge(xy, tri, he, hull, left, right, slots, horizontal):
             break
         if left_ok and right_ok:
             left_ok = (
-                incircle(xy[l, 0], xy[l, 1], xy[r, 0], xy[r, 1], xy[lc, 0], xy[lc, 1], xy[rc, 0], xy[rc, 1])
-                <= 0.0
+                incircle_perturbed(
+                    xy[l, 0], xy[l, 1], xy[r, 0], xy[r, 1], xy[lc, 0], xy[lc, 1], xy[rc, 0], xy[rc, 1]
+                )
+                < 0.0
             )
         t = 3 * slots[used]
         used += 1

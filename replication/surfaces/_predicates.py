@@ -19,7 +19,7 @@ from numba import njit
 
 from replication import _numbacache
 
-__all__ = ["incircle", "orient"]
+__all__ = ["incircle", "incircle_perturbed", "orient"]
 
 _EPS = 2.0**-53
 _SPLITTER = 134217729.0  # 2**27 + 1, Dekker's splitter for float64
@@ -306,6 +306,57 @@ def incircle(ax, ay, bx, by, cx, cy, dx, dy):
     counter-clockwise a, b, c, -1 outside, 0 on it (exact)."""
     sign = _incircle_filter(ax, ay, bx, by, cx, cy, dx, dy)
     return sign if sign != 2.0 else _incircle_exact(ax, ay, bx, by, cx, cy, dx, dy)
+
+
+@njit(cache=True, inline="always")
+def _before(ax, ay, bx, by):
+    """1 when a comes before b in lexicographic (x, then y) order, else 0."""
+    return 1 if ax < bx or (ax == bx and ay < by) else 0
+
+
+@njit(cache=True)
+def _cocircular_side(ax, ay, bx, by, cx, cy, dx, dy):
+    """The side of d, on the circle through the counter-clockwise a, b, c, after a symbolic
+    perturbation that ranks the four distinct points in lexicographic (x, then y) order.
+
+    The perturbation of O. Devillers and M. Teillaud, "Perturbations for Delaunay and weighted
+    Delaunay 3D triangulations", Computational Geometry 44 (2011), section 3, in the plane (as
+    in CGAL's ``Delaunay_triangulation_2``): the point last in lexicographic order is lifted
+    by the largest infinitesimal, the one before it by the next, so the first of the two that
+    is d puts d outside, and otherwise an orientation decides. Two ranks always settle it.
+    """
+    ra = _before(bx, by, ax, ay) + _before(cx, cy, ax, ay) + _before(dx, dy, ax, ay)
+    rb = _before(ax, ay, bx, by) + _before(cx, cy, bx, by) + _before(dx, dy, bx, by)
+    rc = _before(ax, ay, cx, cy) + _before(bx, by, cx, cy) + _before(dx, dy, cx, cy)
+    for rank in (3, 2):
+        if ra != rank and rb != rank and rc != rank:  # d has this rank
+            return -1.0
+        if rc == rank:
+            side = orient(ax, ay, bx, by, dx, dy)
+        elif rb == rank:
+            side = orient(ax, ay, dx, dy, cx, cy)
+        else:
+            side = orient(dx, dy, bx, by, cx, cy)
+        if side != 0.0:
+            return side
+    return -1.0
+
+
+@njit(cache=True)
+def incircle_perturbed(ax, ay, bx, by, cx, cy, dx, dy):
+    """:func:`incircle` with co-circular ties broken by a symbolic perturbation: +1 or -1, never 0.
+
+    Four co-circular points (the corners of every square of a lattice) have two Delaunay
+    triangulations; the perturbation (see :func:`_cocircular_side`) decides by the points'
+    lexicographic order, so the triangulation built with it is the one Delaunay triangulation
+    of the perturbed points: it depends on the point set only, never on the order in which
+    the points come (a file's row order) or are inserted. The points must be distinct, and
+    a, b, c counter-clockwise.
+    """
+    sign = _incircle_filter(ax, ay, bx, by, cx, cy, dx, dy)
+    if sign == 2.0:
+        sign = _incircle_exact(ax, ay, bx, by, cx, cy, dx, dy)
+    return sign if sign != 0.0 else _cocircular_side(ax, ay, bx, by, cx, cy, dx, dy)
 
 
 _numbacache.refresh(globals())  # numba keys its cache on this file only (see replication._numbacache)

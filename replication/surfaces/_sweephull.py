@@ -9,9 +9,11 @@ two changes that matter for lattice (highly degenerate) clouds:
 
 * **Exact predicates** (:mod:`._predicates`): which hull edges a point sees and whether an
   edge is flipped are decided exactly, so collinear and co-circular lattice points are never
-  misclassified and every edge of the result is locally Delaunay in exact arithmetic (an edge
-  is flipped only when the opposite point is strictly inside the circle, so the flips
-  terminate; in exactly co-circular configurations either diagonal is Delaunay).
+  misclassified and every edge of the result is locally Delaunay in exact arithmetic.
+  Exactly co-circular points (every square of a lattice) have more than one Delaunay
+  triangulation; a symbolic perturbation by the points' lexicographic order decides them
+  (:func:`._predicates.incircle_perturbed`), so the flips terminate and the triangles depend
+  on the point set alone, not on the order of the rows or of the insertions.
 * **An empty-circle seed.** The seed edge joins a point to its nearest neighbour (always a
   Delaunay edge) and the third point is the one on the left whose circle through the edge has
   the smallest signed centre offset, so the seed triangle's circumcircle holds no other point.
@@ -31,14 +33,14 @@ import numpy as np
 from numba import njit
 
 from replication import _numbacache
-from replication.surfaces._predicates import incircle, orient
+from replication.surfaces._predicates import incircle_perturbed, orient
 from replication.surfaces._status import STATUS_COLLINEAR, STATUS_OK, STATUS_SKIPPED
 
 __all__ = [
     "STATUS_COLLINEAR",
     "STATUS_OK",
     "STATUS_SKIPPED",
-    "incircle",
+    "incircle_perturbed",
     "legalize",
     "link",
     "orient",
@@ -69,8 +71,11 @@ def legalize(stack, top, xy, tri, he, hull_tri):
     """Lawson's edge flips from the half-edges ``stack[:top]`` until each is locally Delaunay.
 
     A half-edge ``a`` of triangle (p, q, r), running p -> q, with twin ``b`` of (q, p, s) is
-    flipped when s lies strictly inside the circle through p, q, r (exact in-circle test:
-    co-circular edges are never flipped, so the flips terminate). The flip puts the two
+    flipped when s lies inside the circle through p, q, r (exact in-circle test; four
+    co-circular points are decided by the symbolic perturbation of
+    :func:`._predicates.incircle_perturbed`, which is the in-circle test of a point set in
+    general position, so the flips terminate and their result, the Delaunay triangulation
+    of the perturbed points, is unique). The flip puts the two
     triangles (s, q, r) and (r, p, s) in the same slots, so ``a`` then runs s -> q and ``b``
     r -> p; hull half-edges that move to another slot are re-registered in ``hull_tri``.
     After a flip the four outer edges of the pair, which may have become illegal, are
@@ -108,8 +113,10 @@ def legalize(stack, top, xy, tri, he, hull_tri):
         fr = tri[a2]
         fs = tri[b2]
         if (
-            incircle(xy[fp, 0], xy[fp, 1], xy[fq, 0], xy[fq, 1], xy[fr, 0], xy[fr, 1], xy[fs, 0], xy[fs, 1])
-            <= 0.0
+            incircle_perturbed(
+                xy[fp, 0], xy[fp, 1], xy[fq, 0], xy[fq, 1], xy[fr, 0], xy[fr, 1], xy[fs, 0], xy[fs, 1]
+            )
+            < 0.0
         ):
             continue
         ha2 = he[a2]
@@ -395,10 +402,10 @@ def sweep(xy, lo, hi, i0, i1, i2, ccx, ccy, tri, he, t_lo, hull_next, hull_prev,
                 fr = tri[a2]
                 fs = tri[b2]
                 if (
-                    incircle(
+                    incircle_perturbed(
                         xy[fp, 0], xy[fp, 1], xy[fq, 0], xy[fq, 1], xy[fr, 0], xy[fr, 1], xy[fs, 0], xy[fs, 1]
                     )
-                    <= 0.0
+                    < 0.0
                 ):
                     continue
                 ha2 = he[a2]
