@@ -96,7 +96,8 @@ def test_dask_missing_is_named_before_a_run_directory_is_made(capsys, tmp_path, 
     )
     monkeypatch.chdir(tmp_path)
     code, out, err = run(capsys, "casestudy", "--quick", "--run-dir", "runs/r", *argv)
-    assert code == 1 and one_line(err, "casestudy") and "pip install 'replication[dask]'" in err, err
+    assert code == 1 and one_line(err, "casestudy") and 'pip install ".[dask]"' in err, err
+    assert "replication[" not in err  # PyPI's replication is another project
     assert out == "" and list(tmp_path.iterdir()) == []
 
 

@@ -38,8 +38,10 @@ __all__ = ["CONNECT_TIMEOUT_S", "check_scheduler_address", "dask_executor", "req
 CONNECT_TIMEOUT_S = 5.0
 
 
-#: What to install for the dask executor.
-DASK_HINT = "dask evaluation needs the optional extra: pip install 'replication[dask]'"
+#: What to install for the dask executor: the extra of this project's checkout, as for SPH
+#: (``replication`` on PyPI is another project, so ``pip install 'replication[dask]'`` would
+#: install that one).
+DASK_HINT = 'dask evaluation needs the optional extra: pip install ".[dask]"'
 
 
 def require_dask() -> None:
