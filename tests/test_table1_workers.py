@@ -26,12 +26,27 @@ def _no_progress(items, description, total):
     return items
 
 
+class _Finished:
+    """A progress hook that records the bars whose loop ran to its end (a bar the caller never
+    asked for its last item stopped at 19/20 instead of saying "done")."""
+
+    def __init__(self):
+        self.started, self.finished = [], []
+
+    def __call__(self, items, description, total):
+        self.started.append(description)
+        yield from items
+        self.finished.append(description)
+
+
 @pytest.mark.filterwarnings(
     "ignore::replication.errors.DuplicatePointsWarning"
 )  # lattice merges (run_table1 too)
 def test_monte_carlo_statistics_on_workers_match_one_process():
-    here = table1._monte_carlo(CONFIG, _no_progress, 1)
+    bars = _Finished()
+    here = table1._monte_carlo(CONFIG, bars, 1)
     there = table1._monte_carlo(CONFIG, _no_progress, 2)
+    assert bars.finished == bars.started and len(bars.started) == 2
     assert len(here) == len(CONFIG.ns) * CONFIG.mc_seeds
     assert list(here.columns) == list(there.columns)
     assert {"a_t_p", "b_wilcoxon_p", "a_equivalent", "b_rms_pct"} <= set(here.columns)
@@ -56,8 +71,10 @@ def test_storage_sizes_on_workers_match_one_process():
 def test_scale_file_sizes_on_workers_match_one_process(tmp_path):
     config = dataclasses.replace(CONFIG, scale_ns=(1_000, 3_000, 10_000), scale_max_files=3_000,
                                  scale_max_fast=1_000, scale_repeats=1)  # fmt: skip
-    here = table1._scale_sweep(config, _no_progress, tmp_path, 1)
+    bars = _Finished()
+    here = table1._scale_sweep(config, bars, tmp_path, 1)
     there = table1._scale_sweep(config, _no_progress, tmp_path, 2)
+    assert bars.finished == bars.started and "scale sweep: file sizes" in bars.finished
     files = here[here["bytes"].notna()]
     assert list(zip(files["n"], files["method"])) == [
         (1_000, "ADT file (.vtp)"), (1_000, "ADT file (.vtk)"), (1_000, "NURBS file (.smesh)"),

@@ -407,8 +407,9 @@ def _monte_carlo(config: Table1Config, progress: Progress, workers: int = 1) -> 
         stats = ordered_map(
             pool, partial(monte_carlo_statistics, config), jobs, _chunk(len(jobs), workers, MC_CHUNK)
         )
+        # strict: zip then asks the progress hook for one more item, so its bar reaches "done"
         for row, extra in zip(
-            rows, progress(stats, "paired statistics of the Monte Carlo clouds", len(jobs))
+            rows, progress(stats, "paired statistics of the Monte Carlo clouds", len(jobs)), strict=True
         ):
             row.update(extra)
     return pd.DataFrame(rows).sort_values(["n", "replicate"], ignore_index=True)
@@ -525,7 +526,7 @@ def _scale_sweep(config: Table1Config, progress: Progress, workdir: Path, worker
         # largest first, so that the longest jobs do not start last
         order = sorted(files, key=lambda job: -job[0])
         measured = ordered_map(pool, partial(scale_file_size, config, str(workdir)), order, 1)
-        for job, row in zip(order, progress(measured, "scale sweep: file sizes", len(order))):
+        for job, row in zip(order, progress(measured, "scale sweep: file sizes", len(order)), strict=True):
             sizes[job[0]].append(row)
     rows = []
     for n in jobs:
