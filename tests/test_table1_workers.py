@@ -151,3 +151,23 @@ def test_workers_option_of_the_commands(capsys):
             main([command, "--workers", "0"])
         assert exc.value.code == 2
         assert "--workers" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["table1", "reproduce", "casestudy", "sph", "validate-jet"])
+def test_a_worker_count_beyond_the_machine_is_refused_before_anything_starts(
+    command, capsys, tmp_path, monkeypatch
+):
+    """``casestudy --workers 100000`` started worker processes until memory ran out."""
+    import os
+
+    from replication.cli import main
+    from replication.cli.common import WORKERS_PER_CPU
+
+    monkeypatch.chdir(tmp_path)
+    limit = WORKERS_PER_CPU * (os.cpu_count() or 1)
+    with pytest.raises(SystemExit) as exc:
+        main([command, "--workers", str(limit + 1)])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and err.count("\n") == 1, err
+    assert f"at most {limit} worker processes" in err and f"got {limit + 1}" in err
+    assert list(tmp_path.iterdir()) == []  # no run or output directory made

@@ -40,6 +40,7 @@ from replication.cli.common import (
     say_simulations_finish,
     say_when_publishing_waits,
     seed,
+    worker_count,
 )
 from replication.cli.outputs import (
     DEFAULT_DIR,
@@ -366,7 +367,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--executor", choices=EXECUTORS, default="auto", help="where fitness is evaluated (default auto)"
     )
-    p.add_argument("--workers", type=positive_int, help="process-pool or local dask workers (default: CPUs)")
+    p.add_argument("--workers", type=worker_count, help="process-pool or local dask workers (default: CPUs)")
     p.add_argument(
         "--scheduler", metavar="ADDRESS", help="address of a running dask scheduler (implies dask)"
     )

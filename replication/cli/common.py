@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import os
 import sys
 import warnings
 from collections.abc import Iterator
@@ -27,6 +28,7 @@ __all__ = [
     "relay_warnings",
     "seed",
     "warm_up",
+    "worker_count",
 ]
 
 
@@ -49,6 +51,23 @@ def _int_at_least(minimum: int, what: str):
 positive_int = _int_at_least(1, "a positive integer")
 #: argparse type: a non-negative integer seed.
 seed = _int_at_least(0, "a non-negative integer seed")
+
+#: Local worker processes per CPU at most (``--workers``): a process pool starts all its
+#: workers at once, each holding the package (about 80-100 MB), and more than a few per core
+#: only compete for the cores; ``--workers 100000`` started processes until memory ran out.
+WORKERS_PER_CPU = 4
+
+
+def worker_count(text: str) -> int:
+    """argparse type: a number of local worker processes, 1 to :data:`WORKERS_PER_CPU` per CPU."""
+    value = positive_int(text)
+    cpus = os.cpu_count() or 1
+    if value > WORKERS_PER_CPU * cpus:
+        raise argparse.ArgumentTypeError(
+            f"at most {WORKERS_PER_CPU * cpus} worker processes on this machine's {cpus} CPU(s) "
+            f"({WORKERS_PER_CPU} per CPU: more only compete for its cores and memory), got {value}"
+        )
+    return value
 
 
 def _float(text: str, what: str) -> float:

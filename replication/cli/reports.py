@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from replication.cli.casestudy import plan_casestudy, run_and_report
-from replication.cli.common import positive_int, say_when_publishing_waits
+from replication.cli.common import positive_int, say_when_publishing_waits, worker_count
 from replication.cli.outputs import (
     DEFAULT_DIR,
     QUICK_DIR,
@@ -341,7 +341,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         )
         p.add_argument(
             "--workers",
-            type=positive_int,
+            type=worker_count,
             metavar="N",
             help="worker processes for the untimed work (Table 1's paired statistics, storage sizes, "
             "scale-sweep file sizes and figures"

@@ -10,7 +10,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from replication.cli.common import emit_json, positive_int, say_when_publishing_waits
+from replication.cli.common import emit_json, say_when_publishing_waits, worker_count
 
 SOLVERS = ("sheet", "sph")
 #: The SPH options of ``replication force`` (dest names); they need --solver sph.
@@ -348,7 +348,7 @@ reason, and the report says which.
     )
     p.add_argument(
         "--workers",
-        type=positive_int,
+        type=worker_count,
         metavar="N",
         help="simulations at a time, each on a core of its own (default 2, or 1 on a single CPU; 1 runs "
         "them one after another in this process); no result depends on it",

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from replication.cli.common import positive_int
+from replication.cli.common import worker_count
 from replication.cli.validate_run import run_validation_report
 
 EPILOG = """\
@@ -151,7 +151,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "cache, instead of reading the set kept there (not with --from-cache)",
     )
     p.add_argument(
-        "--workers", type=positive_int, default=2, help="simulations at a time (default 2; each uses a core)"
+        "--workers", type=worker_count, default=2, help="simulations at a time (default 2; each uses a core)"
     )
     p.add_argument(
         "--executor",
