@@ -78,6 +78,11 @@ def test_only_explicit_settings_are_compared(capsys, tmp_path, monkeypatch, refe
     )  # fmt: skip
     plan = plan_casestudy(args)
     assert plan.config == TINY and plan.resume and plan.done_generations == 0
+    # the hint keeps where the fitness was evaluated: the report times the evaluations, and a
+    # run interrupted on one worker and resumed on all would report another evaluation cost
+    assert shlex.split(plan.hint)[-2:] == ["--executor", "serial"]
+    on_one = plan_casestudy(argparse.Namespace(**{**vars(args), "executor": "process", "workers": 1}))
+    assert shlex.split(on_one.hint)[-4:] == ["--executor", "process", "--workers", "1"]
     # the printed hint's form: no settings at all; the run starts from generation 0 and ends as
     # an uninterrupted one, its report in its own directory (not the paper's settings)
     assert main(base) == 0, capsys.readouterr().err

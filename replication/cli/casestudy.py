@@ -216,6 +216,14 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     hint = ["replication", "casestudy", "--run-dir", str(run_dir), "--resume"]
     if out.resolve() != default_out.resolve():
         hint += ["--output-dir", str(out)]
+    # where the fitness is evaluated is not a setting of the run, but the report times it:
+    # a resume on other workers would report another evaluation cost
+    if getattr(args, "executor", "auto") != "auto":
+        hint += ["--executor", args.executor]
+    if getattr(args, "workers", None) is not None:
+        hint += ["--workers", str(args.workers)]
+    if getattr(args, "scheduler", None) is not None:
+        hint += ["--scheduler", args.scheduler]
     hint += rescore_hint(args)
     return Plan(
         config=config, run_dir=run_dir, resume=args.resume, out=out, hint=shlex.join(hint),

@@ -246,7 +246,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     print(f"replication reproduce: {kind} into {out}/")
     start = time.perf_counter()
     print("  preparing the compiled kernels (a fresh environment compiles them once: about 20 s)", flush=True)
-    warm_up(processes=os.cpu_count() or 1)  # in a fresh environment, on two cores at once
+    warm_up(processes=args.workers or os.cpu_count() or 1)  # fresh environment: on two cores at once
     print(f"  [done] kernels: compiled or loaded from numba's cache ({time.perf_counter() - start:.1f} s)")
     written: list[Path] = []
     for name, what in STAGES:
