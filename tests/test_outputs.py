@@ -93,6 +93,67 @@ def test_failed_second_write_removes_the_first(capsys, tmp_path, monkeypatch):
     assert sorted(tmp_path.iterdir()) == []
 
 
+def _existing_outputs(tmp_path):
+    """-o and --save-cloud files that exist before the command, with their contents."""
+    outputs = {tmp_path / "s.vtk": "the old surface\n", tmp_path / "c.csv": "x,y,z\n1,2,3\n"}
+    for path, text in outputs.items():
+        path.write_text(text)
+    return outputs
+
+
+@pytest.mark.parametrize(
+    ("failure", "code", "message"),
+    [(OutputError("cannot write c.csv: Permission denied"), 1, "Permission denied"),
+     (KeyboardInterrupt(), 130, "interrupted")],
+)  # fmt: skip
+def test_a_failed_second_write_leaves_existing_outputs_untouched(
+    capsys, tmp_path, monkeypatch, failure, code, message
+):
+    # the surface was replaced, then the cloud failed: "error: cannot write ..." (or "interrupted")
+    # with the old surface gone
+    import replication.io
+
+    def second_write_fails(*args, **kwargs):
+        raise failure
+
+    before = _existing_outputs(tmp_path)
+    monkeypatch.setattr(replication.io, "save_cloud", second_write_fails)
+    result = run(capsys, "adt", "--random", "30", "--seed", "1", "-o", tmp_path / "s.vtk",
+                 "--save-cloud", tmp_path / "c.csv")  # fmt: skip
+    assert result[0] == code and message in result[2]
+    assert {path: path.read_text() for path in tmp_path.iterdir()} == before  # and no temporary left
+
+
+@pytest.mark.parametrize("surface_existed", [True, False])
+def test_a_failed_move_puts_back_the_outputs_already_moved(capsys, tmp_path, monkeypatch, surface_existed):
+    # all or none holds for the moves too: the surface moved into place, then the cloud's move failed
+    real_replace = os.replace
+
+    def replace(src, dst):
+        if os.path.basename(dst) == "c.csv" and ".old" not in os.path.basename(src):
+            raise OSError(28, "No space left on device")
+        real_replace(src, dst)
+
+    before = _existing_outputs(tmp_path)
+    if not surface_existed:
+        (tmp_path / "s.vtk").unlink()
+        del before[tmp_path / "s.vtk"]
+    monkeypatch.setattr(os, "replace", replace)
+    code, _, err = run(capsys, "adt", "--random", "30", "--seed", "1", "-o", tmp_path / "s.vtk",
+                       "--save-cloud", tmp_path / "c.csv")  # fmt: skip
+    assert code == 1 and "No space left on device" in err and err.count("\n") == 1, err
+    assert {path: path.read_text() for path in tmp_path.iterdir()} == before  # and no temporary left
+
+
+def test_all_outputs_replaced_together_on_success(capsys, tmp_path):
+    _existing_outputs(tmp_path)
+    code, _, _ = run(capsys, "adt", "--random", "30", "--seed", "1", "-o", tmp_path / "s.vtk",
+                     "--save-cloud", tmp_path / "c.csv")  # fmt: skip
+    assert code == 0 and sorted(p.name for p in tmp_path.iterdir()) == ["c.csv", "s.vtk"]  # no backup left
+    assert (tmp_path / "s.vtk").read_text().startswith("# vtk DataFile")
+    assert (tmp_path / "c.csv").read_text().count("\n") == 31
+
+
 def test_save_cloud_bad_suffix_refused_before_work(capsys, tmp_path):
     code, _, err = run(capsys, "adt", "--random", "30", "--seed", "1", "--save-cloud", tmp_path / "c.dat")
     assert code == 1 and "--save-cloud" in err and "'.dat'" in err

@@ -3,13 +3,13 @@
 A command that writes a surface (``-o``) and the generated cloud (``--save-cloud``) checks
 first that every output's directory exists and that no output is the same file as an input
 or as another output (:func:`replication.io.paths.check_distinct`); it writes only after
-the work succeeded, and a failed write removes the files the command had just created.
+the work succeeded, and only when every output is written are they moved into place: a
+failed or interrupted write leaves every output as it was before the command.
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import sys
 from pathlib import Path
 from typing import Any
@@ -68,25 +68,14 @@ def save_generated_cloud(cloud: np.ndarray, args: argparse.Namespace, meta: dict
 
 
 def write_all_or_none(*writers: tuple[str | None, Any]) -> list[Any]:
-    """Run ``(path, write)`` pairs in order; if one fails, remove the files the others created.
+    """Run ``(path, write)`` pairs (``write`` writes ``path`` atomically); return their results.
 
-    Each writer is atomic by itself; a file that existed before is left as the writer left
-    it (replaced), a file this call created is removed, so a failed command leaves no new file.
+    The files are moved into place only when every write succeeded
+    (:func:`replication.io.atomic.all_or_none`): a failed or interrupted command leaves no new
+    file, and every file that existed before it as it was. A pair whose path is None is
+    skipped (its result is None).
     """
-    done: list[Path] = []
-    results = []
-    try:
-        for path, write in writers:
-            if path is None:
-                results.append(None)
-                continue
-            existed = Path(path).exists()
-            results.append(write())
-            if not existed:
-                done.append(Path(path))
-    except BaseException:
-        for path in done:
-            with contextlib.suppress(OSError):
-                path.unlink()
-        raise
-    return results
+    from replication.io.atomic import all_or_none
+
+    with all_or_none():
+        return [None if path is None else write() for path, write in writers]

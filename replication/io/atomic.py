@@ -3,26 +3,36 @@
 An interrupted or failed write never leaves a truncated file under the final name: either
 the old file (if any) or the complete new one is there. The temporary file of a write that
 was killed outright is removed by the next write of the same name.
+
+Several files written inside :func:`all_or_none` are moved into place together: a command
+whose second output fails leaves the first one as it was, new or old.
 """
 
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import glob
 import hashlib
 import os
+import secrets
+import shutil
+import signal
 import socket
 import tempfile
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 
 from replication.errors import OutputError, shortened
 
 __all__ = [
+    "all_or_none",
     "atomic_path",
     "atomic_write_bytes",
     "atomic_write_text",
     "check_output_path",
+    "interrupt_deferred",
     "writer_gone",
     "writer_tag",
 ]
@@ -118,7 +128,8 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     The temporary name keeps ``path``'s suffix, so writers that choose a format by suffix
     (VTK, numpy) work on it. On any exception the temporary file is removed and the
     destination is untouched; operating-system errors (an unwritable directory, a full
-    disk) become :class:`~replication.errors.OutputError` naming the file.
+    disk) become :class:`~replication.errors.OutputError` naming the file. Inside
+    :func:`all_or_none` the complete temporary file waits there for the other writes.
     """
     final = check_output_path(path)
     _remove_abandoned(final)
@@ -135,7 +146,11 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         with open(tmp, "rb+") as handle:  # make the bytes durable before the rename
             os.fsync(handle.fileno())
         os.chmod(tmp, _mode_for(final))
-        os.replace(tmp, final)
+        staged = _STAGED.get()
+        if staged is None:
+            os.replace(tmp, final)
+        else:
+            staged.append((tmp, final))
     except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
@@ -154,3 +169,115 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> int:
 def atomic_write_text(path: str | os.PathLike[str], text: str) -> int:
     """Write UTF-8 ``text`` atomically (``\\n`` line ends); return the bytes written."""
     return atomic_write_bytes(path, text.encode("utf-8"))
+
+
+@contextlib.contextmanager
+def interrupt_deferred() -> Iterator[None]:
+    """Hold a Ctrl-C (SIGINT) until the block ends, then raise it.
+
+    Only where Python's own handler is in place (in the main thread): an ignored SIGINT (a
+    background job) or an application's own handler is left to do what it does.
+    """
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+    ):
+        yield
+        return
+    caught: list[int] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    if caught:
+        raise KeyboardInterrupt
+
+
+#: The (temporary, final) files of the :func:`all_or_none` block running, in the order written.
+_STAGED: contextvars.ContextVar[list[tuple[Path, Path]] | None] = contextvars.ContextVar(
+    "_STAGED", default=None
+)
+
+
+@contextlib.contextmanager
+def all_or_none() -> Iterator[None]:
+    """Write the files of the block (:func:`atomic_path` and its users) all, or none of them.
+
+    Each write goes to its temporary file as usual, but stays there; when the block ends
+    without an error, the files are moved into place one after the other, with Ctrl-C held
+    meanwhile. An error or a Ctrl-C in the block removes the temporaries and leaves every
+    destination as it was. Should a move fail, the files already moved are put back: the
+    old file of each (kept under a temporary name until the moves are done) or, for a new
+    one, none. A nested block joins the outer one.
+
+    Raises
+    ------
+    OutputError
+        When a file cannot be moved into place (the destinations are then as they were).
+    """
+    if _STAGED.get() is not None:
+        yield
+        return
+    staged: list[tuple[Path, Path]] = []
+    token = _STAGED.set(staged)
+    try:
+        try:
+            yield
+        finally:
+            _STAGED.reset(token)
+        with interrupt_deferred():
+            _move_all(staged)
+    finally:
+        for tmp, _ in staged:  # what was not moved (all of them after an error)
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+
+
+def _keep_old(final: Path) -> Path | None:
+    """A second name for ``final`` (a hard link, or a copy) to restore it from; None if there is none."""
+    if not final.exists():
+        return None
+    backup = final.with_name(f".{final.name}.{writer_tag()}old{secrets.token_hex(4)}.tmp{final.suffix}")
+    try:
+        os.link(final, backup)
+    except OSError:  # a file system without hard links
+        try:
+            shutil.copy2(final, backup)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                backup.unlink()
+            raise
+    return backup
+
+
+def _move_all(staged: list[tuple[Path, Path]]) -> None:
+    """Move each temporary onto its final name; on a failure, put back the ones already moved."""
+    moved: list[tuple[Path, Path | None]] = []
+    final = None
+    try:
+        for k, (tmp, final) in enumerate(staged):
+            # the last move needs no second name: it fails whole, and nothing follows it
+            backup = _keep_old(final) if k < len(staged) - 1 else None
+            try:
+                os.replace(tmp, final)
+            except BaseException:
+                if backup is not None:  # the old file is still in place
+                    with contextlib.suppress(OSError):
+                        backup.unlink()
+                raise
+            moved.append((final, backup))
+    except BaseException as exc:
+        for done, backup in reversed(moved):
+            with contextlib.suppress(OSError):
+                if backup is None:
+                    done.unlink()
+                else:
+                    os.replace(backup, done)
+        if isinstance(exc, OSError) and not isinstance(exc, OutputError):
+            raise OutputError(f"cannot write {final}: {exc.strerror or exc}") from exc
+        raise
+    for _, backup in moved:
+        if backup is not None:
+            with contextlib.suppress(OSError):
+                backup.unlink()

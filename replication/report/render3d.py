@@ -35,7 +35,7 @@ def _load_pyvista() -> Any:
     lazily on the first ``pv.Plotter`` and which pulls in most of VTK, is loaded here too: a
     Ctrl-C during that later import crashed the same way or was swallowed (2-3 of 60).
     """
-    from replication.report.store import interrupt_deferred
+    from replication.io.atomic import interrupt_deferred
 
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     with interrupt_deferred():

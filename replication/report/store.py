@@ -14,9 +14,7 @@ import io
 import json
 import os
 import shutil
-import signal
 import tempfile
-import threading
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
@@ -24,7 +22,7 @@ from typing import Any
 import pandas as pd
 
 from replication.errors import ReportDataError
-from replication.io.atomic import atomic_write_text, writer_gone, writer_tag
+from replication.io.atomic import atomic_write_text, interrupt_deferred, writer_gone, writer_tag
 
 __all__ = [
     "PUBLISH_WAIT",
@@ -124,29 +122,6 @@ def read_json(path: str | os.PathLike[str]) -> dict[str, Any]:
     if not isinstance(data, dict):
         raise ReportDataError(f"{path}: expected a JSON object, got {type(data).__name__}")
     return data
-
-
-@contextlib.contextmanager
-def interrupt_deferred() -> Iterator[None]:
-    """Hold a Ctrl-C (SIGINT) until the block ends, then raise it.
-
-    Only where Python's own handler is in place (in the main thread): an ignored SIGINT (a
-    background job) or an application's own handler is left to do what it does.
-    """
-    if (
-        threading.current_thread() is not threading.main_thread()
-        or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
-    ):
-        yield
-        return
-    caught: list[int] = []
-    signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-    if caught:
-        raise KeyboardInterrupt
 
 
 STAGING = ".staging-"
