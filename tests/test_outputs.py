@@ -154,6 +154,27 @@ def test_all_outputs_replaced_together_on_success(capsys, tmp_path):
     assert (tmp_path / "c.csv").read_text().count("\n") == 31
 
 
+@pytest.mark.skipif(not os.path.isdir("/sys/kernel"), reason="needs sysfs, where no file can be created")
+@pytest.mark.parametrize(
+    ("command", "option", "name"),
+    [("adt", "-o", "s.vtk"), ("adt", "--save-cloud", "c.csv"), ("nurbs", "-o", "s.smesh"),
+     ("compare", "--save-cloud", "c.csv")],
+)  # fmt: skip
+def test_an_unwritable_output_directory_is_refused_before_any_work(
+    capsys, monkeypatch, command, option, name
+):
+    # was found only when written: a 20 s run of 1e6 points, then "cannot write ...: Permission denied"
+    # (sysfs refuses new files even to root, whom permission bits do not stop)
+    def started(*args, **kwargs):
+        raise AssertionError("the work started before the output checks")
+
+    monkeypatch.setattr("replication.cli.surfaces.load_or_generate", started)
+    monkeypatch.setattr("replication.cli.compare.load_or_generate", started)
+    code, out, err = run(capsys, command, "--random", "30", "--seed", "1", option, f"/sys/kernel/{name}")
+    assert code == 1 and out == "" and err.count("\n") == 1, err
+    assert f"cannot write /sys/kernel/{name}: the directory /sys/kernel is not writable" in err, err
+
+
 def test_save_cloud_bad_suffix_refused_before_work(capsys, tmp_path):
     code, _, err = run(capsys, "adt", "--random", "30", "--seed", "1", "--save-cloud", tmp_path / "c.dat")
     assert code == 1 and "--save-cloud" in err and "'.dat'" in err

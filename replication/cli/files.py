@@ -1,10 +1,10 @@
 """Output files of the surface commands: checked before any work, written all or none.
 
 A command that writes a surface (``-o``) and the generated cloud (``--save-cloud``) checks
-first that every output's directory exists and that no output is the same file as an input
-or as another output (:func:`replication.io.paths.check_distinct`); it writes only after
-the work succeeded, and only when every output is written are they moved into place: a
-failed or interrupted write leaves every output as it was before the command.
+first that every output's directory exists and is writable, and that no output is the same
+file as an input or as another output (:func:`replication.io.paths.check_distinct`); it
+writes only after the work succeeded, and moves the outputs into place only when every one
+is written: a failed or interrupted write leaves every output as it was before the command.
 """
 
 from __future__ import annotations
@@ -22,19 +22,23 @@ __all__ = ["check_outputs", "save_generated_cloud", "suffix_warning", "write_all
 
 
 def check_outputs(args: argparse.Namespace) -> None:
-    """Before any work: every output's directory exists, and no output is an input or another output.
+    """Before any work: every output's directory exists and is writable, and no output is an
+    input or another output.
 
-    The outputs are ``-o/--output`` and ``--save-cloud``; the input is INPUT. Names are
-    compared by resolved path and, for existing files, by device and inode (links too).
+    The outputs are ``-o/--output`` and ``--save-cloud``; the input is INPUT. A file is
+    created and removed in each output's directory (:func:`~replication.io.paths.check_writable_dir`:
+    permission bits say nothing for root or a read-only file system). Names are compared by
+    resolved path and, for existing files, by device and inode (links too).
     """
     from replication.io import CLOUD_SUFFIXES
     from replication.io.atomic import check_output_path
-    from replication.io.paths import check_distinct
+    from replication.io.paths import check_distinct, check_writable_dir
 
     outputs = [("-o", getattr(args, "output", None)), ("--save-cloud", getattr(args, "save_cloud", None))]
     for _, path in outputs:
-        if path:
-            check_output_path(path)
+        if path:  # was found unwritable only when written, after all the work
+            final = check_output_path(path)
+            check_writable_dir(final.parent, f"cannot write {path}: the directory")
     cloud_file = getattr(args, "save_cloud", None)
     if cloud_file and Path(cloud_file).suffix.lower() not in CLOUD_SUFFIXES:
         raise InputError(
