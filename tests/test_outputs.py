@@ -175,6 +175,34 @@ def test_an_unwritable_output_directory_is_refused_before_any_work(
     assert f"cannot write /sys/kernel/{name}: the directory /sys/kernel is not writable" in err, err
 
 
+@pytest.mark.parametrize(
+    ("command", "option", "name"),
+    [("adt", "-o", "s.vtk/"), ("adt", "-o", "s.vtk/."), ("adt", "--save-cloud", "c.csv/"),
+     ("nurbs", "-o", "s.smesh/"), ("compare", "--save-cloud", "c.csv/")],
+)  # fmt: skip
+def test_an_output_name_ending_in_a_slash_is_refused_before_any_work(
+    capsys, tmp_path, monkeypatch, command, option, name
+):
+    # -o out.vtk/ printed "wrote out.vtk/" and replaced the file out.vtk (Path drops the slash)
+    def started(*args, **kwargs):
+        raise AssertionError("the work started before the output checks")
+
+    monkeypatch.setattr("replication.cli.surfaces.load_or_generate", started)
+    monkeypatch.setattr("replication.cli.compare.load_or_generate", started)
+    file = tmp_path / name.split("/")[0]
+    file.write_text("old\n")
+    code, out, err = run(capsys, command, "--random", "30", "--seed", "1", option, f"{tmp_path}/{name}")
+    assert code == 1 and out == "" and err.count("\n") == 1, err
+    assert f"cannot write {tmp_path}/{name}: {file} is not a directory" in err, err
+    assert file.read_text() == "old\n" and [p.name for p in tmp_path.iterdir()] == [file.name]
+
+
+def test_the_writers_refuse_a_name_ending_in_a_slash(tmp_path):
+    with pytest.raises(OutputError, match="c.csv is not a directory"):
+        save_cloud(np.zeros((3, 3)), f"{tmp_path}/c.csv/")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_save_cloud_bad_suffix_refused_before_work(capsys, tmp_path):
     code, _, err = run(capsys, "adt", "--random", "30", "--seed", "1", "--save-cloud", tmp_path / "c.dat")
     assert code == 1 and "--save-cloud" in err and "'.dat'" in err

@@ -42,14 +42,29 @@ def check_output_path(path: str | os.PathLike[str]) -> Path:
     """Return the file to write for ``path`` after checking its directory exists.
 
     A symbolic link is followed: the file it points to is written and the link stays (a
-    rename onto the link itself would replace it with a regular file).
+    rename onto the link itself would replace it with a regular file). A name ending in
+    ``/`` (or ``/.``) is a directory's, as the shell takes it: refused unless it is one (then
+    refused as a directory), not written as the file without the slash, which ``Path`` drops.
     """
+    given = Path(path)
     try:
-        return _check_output_path(Path(path))
+        if _directory_name(os.fspath(path)) and not given.is_dir():
+            raise OutputError(
+                f"cannot write {os.fsdecode(path)}: {given} is not a directory (a name ending in '/' "
+                "names one; drop the '/' to write the file)"
+            )
+        return _check_output_path(given)
     except OutputError:
         raise
     except OSError as exc:  # Python's Path.is_symlink()/is_dir() raise on a name too long
         raise OutputError(f"cannot write {shortened(path)}: {exc.strerror or exc}") from exc
+
+
+def _directory_name(name: str | bytes) -> bool:
+    """Whether ``name`` ends in a path separator or in ``/.``, which only a directory can have."""
+    text = os.fsdecode(name)
+    seps = tuple(sep for sep in (os.sep, os.altsep) if sep)
+    return text.endswith(seps) or text.endswith(tuple(sep + "." for sep in seps))
 
 
 def _check_output_path(path: Path) -> Path:

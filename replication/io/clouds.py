@@ -334,10 +334,10 @@ def save_cloud(points: np.ndarray, path: str | os.PathLike[str]) -> int:
     representation that reads back to the same float64.
     """
     cloud = as_cloud(points)
-    path = Path(path)
+    name, path = path, Path(path)  # the name as given for the writes: Path drops a trailing '/'
     suffix = path.suffix.lower()
     if suffix == ".npy":
-        with atomic_path(path) as tmp:
+        with atomic_path(name) as tmp:
             with open(tmp, "wb") as handle:  # a name not ending in lower-case .npy would get one added
                 np.save(handle, cloud, allow_pickle=False)
             size = tmp.stat().st_size
@@ -351,4 +351,4 @@ def save_cloud(points: np.ndarray, path: str | os.PathLike[str]) -> int:
     header = "x,y,z\n" if suffix == ".csv" else TEXT_HEADER
     row = sep.join(["{}"] * cloud.shape[1]) + "\n"
     rows = "".join(map(row.format, *(shortest_decimals(cloud[:, k]) for k in range(cloud.shape[1]))))
-    return atomic_write_text(path, header + rows)
+    return atomic_write_text(name, header + rows)
