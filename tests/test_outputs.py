@@ -203,6 +203,27 @@ def test_the_writers_refuse_a_name_ending_in_a_slash(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize(
+    ("command", "option"),
+    [("adt", "--save-cloud"), ("adt", "-o"), ("nurbs", "--save-cloud"), ("nurbs", "-o"),
+     ("compare", "--save-cloud")],
+)  # fmt: skip
+def test_an_empty_output_name_is_a_misused_option(capsys, tmp_path, monkeypatch, command, option):
+    # --save-cloud '' was ignored without a word (the cloud not saved, exit 0)
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        main([command, "--random", "30", "--seed", "1", option, ""])
+    out, err = capsys.readouterr()
+    assert exc.value.code == 2 and out == "" and err.count("\n") == 1, err
+    assert err.startswith(f"replication {command}: error: argument {option}"), err
+    assert "expected a file name, got ''" in err
+    assert list(tmp_path.iterdir()) == []
+    from replication.io.atomic import atomic_write_text
+
+    with pytest.raises(OutputError, match="an empty file name"):  # the writers refuse it too
+        atomic_write_text("", "x")
+
+
 def test_save_cloud_bad_suffix_refused_before_work(capsys, tmp_path):
     code, _, err = run(capsys, "adt", "--random", "30", "--seed", "1", "--save-cloud", tmp_path / "c.dat")
     assert code == 1 and "--save-cloud" in err and "'.dat'" in err

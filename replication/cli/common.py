@@ -19,6 +19,7 @@ __all__ = [
     "add_cloud_source",
     "add_frame_options",
     "emit_json",
+    "file_name",
     "finite_positive",
     "frame_kwargs",
     "load_or_generate",
@@ -93,6 +94,13 @@ def probability(text: str) -> float:
     return value
 
 
+def file_name(text: str) -> str:
+    """argparse type: the name of a file to write, not empty (``--save-cloud ''`` was ignored)."""
+    if not text:
+        raise argparse.ArgumentTypeError("expected a file name, got ''")
+    return text
+
+
 def pair(text: str) -> tuple[int, int]:
     """argparse type: ``"5x9"`` -> (5, 9)."""
     parts = text.lower().replace("*", "x").split("x")
@@ -141,7 +149,10 @@ def add_cloud_source(p: argparse.ArgumentParser) -> None:
         "--step", type=float, metavar="H", help="draw coordinates on a lattice of step H (the case study: 1)"
     )
     g.add_argument(
-        "--save-cloud", metavar="FILE", help="also write the generated points (.csv, .txt, .xyz, .npy)"
+        "--save-cloud",
+        type=file_name,
+        metavar="FILE",
+        help="also write the generated points (.csv, .txt, .xyz, .npy)",
     )
 
 

@@ -10,6 +10,7 @@ from replication.cli.common import (
     add_cloud_source,
     add_frame_options,
     emit_json,
+    file_name,
     finite_positive,
     frame_kwargs,
     load_or_generate,
@@ -249,7 +250,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     add_cloud_source(p)
     p.add_argument(
-        "-o", "--output", metavar="OUT", help="surface file to write (.vtk or .vtp); omit to write nothing"
+        "-o",
+        "--output",
+        type=file_name,
+        metavar="OUT",
+        help="surface file to write (.vtk or .vtp); omit to write nothing",
     )
     p.add_argument(
         "--format",
@@ -279,7 +284,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         )
         add_cloud_source(p)
         if name == "nurbs":
-            p.add_argument("-o", "--output", metavar="OUT", help="NURBS file to write (.smesh or .json)")
+            p.add_argument(
+                "-o", "--output", type=file_name, metavar="OUT", help="NURBS file to write (.smesh or .json)"
+            )
             p.add_argument("--format", choices=NURBS_FORMATS, help="default: from the OUT suffix")
             p.add_argument(
                 "--tessellation",

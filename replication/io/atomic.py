@@ -46,6 +46,8 @@ def check_output_path(path: str | os.PathLike[str]) -> Path:
     ``/`` (or ``/.``) is a directory's, as the shell takes it: refused unless it is one (then
     refused as a directory), not written as the file without the slash, which ``Path`` drops.
     """
+    if not os.fspath(path):  # Path("") is the working directory
+        raise OutputError("cannot write '': an empty file name")
     given = Path(path)
     try:
         if _directory_name(os.fspath(path)) and not given.is_dir():
