@@ -654,6 +654,50 @@ def test_a_closed_pipe_ends_the_command_quietly(capsys, monkeypatch):
     assert capsys.readouterr().err == ""
 
 
+@pytest.mark.parametrize("fails", ["write", "flush"])
+def test_a_full_standard_output_is_one_line_that_says_so(capsys, monkeypatch, tmp_path, fails):
+    """``replication adt ... > /dev/full`` said "unexpected OSError: [Errno 28] No space left on
+    device", as if the surface file had failed; a block-buffered stdout failed only at exit."""
+    import errno
+    import io
+    import sys
+
+    class Full(io.StringIO):
+        def write(self, text):
+            if fails == "write":
+                raise OSError(errno.ENOSPC, "No space left on device")
+            return len(text)
+
+        def flush(self):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(sys, "stdout", Full())
+    assert main(["adt", "--random", "20", "--seed", "1", "-o", str(tmp_path / "s.vtk")]) == 1
+    err = capsys.readouterr().err
+    assert one_line(err, "adt") and "unexpected" not in err and "--debug" not in err, err
+    assert "cannot write the standard output: No space left on device" in err, err
+    assert (tmp_path / "s.vtk").read_text().startswith("# vtk DataFile")  # the file itself is complete
+
+
+@pytest.mark.skipif(not __import__("os").path.exists("/dev/full"), reason="needs /dev/full")
+@pytest.mark.parametrize("buffered", [True, False])
+def test_standard_output_on_a_full_device(tmp_path, buffered):
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    if not buffered:
+        env["PYTHONUNBUFFERED"] = "1"
+    command = [sys.executable, "-m", "replication", "adt", "--random", "20", "--seed", "1", "-o", "s.vtk"]
+    with open("/dev/full", "w") as full:
+        done = subprocess.run(command, stdout=full, stderr=subprocess.PIPE, text=True, cwd=tmp_path, env=env)
+    assert done.returncode == 1, done.stderr
+    assert done.stderr.startswith("replication adt: error: cannot write the standard output: No space left")
+    assert done.stderr.count("\n") == 1, done.stderr  # no "Exception ignored" at exit
+    assert (tmp_path / "s.vtk").read_text().startswith("# vtk DataFile")
+
+
 def test_report_says_which_tables_lack_their_provenance(capsys, tmp_path):
     # a save killed while it published its files leaves them without provenance: say so, do not skip silently
     (tmp_path / "data").mkdir()

@@ -4,9 +4,11 @@ Only this package prints or sets an exit status: library errors (:class:`Replica
 become a one-line message on stderr and exit status 1; usage errors exit with status 2
 (argparse); an interrupt (Ctrl-C) exits with 130. The system refusing a file the user named
 (an operating-system error that carries the file name, such as a name too long) and a lack
-of memory are one line too, saying so. Any other exception is a bug or an environment
-problem nobody foresaw: it too becomes one line, naming its type, with a hint to run again
-with ``--debug`` for the traceback.
+of memory are one line too, saying so. So is a standard output that cannot be written (a
+full disk, ``> /dev/full``): the line says it was the standard output, not a file the
+command wrote. Any other exception is a bug or an environment problem nobody foresaw: it
+too becomes one line, naming its type, with a hint to run again with ``--debug`` for the
+traceback.
 """
 
 from __future__ import annotations
@@ -185,6 +187,48 @@ def _unexpected(exc: BaseException) -> str:
     return f"{_one_line(exc)} (run with --debug for the traceback)"
 
 
+class _StdoutFailed(Exception):
+    """Writing the standard output failed; ``__cause__`` is the ``OSError``."""
+
+
+class _GuardedStdout:
+    """``sys.stdout`` while a command runs: an ``OSError`` writing it becomes :class:`_StdoutFailed`.
+
+    A full disk under ``replication adt ... > out.txt`` read "unexpected OSError: [Errno 28]
+    No space left on device", as if the surface file had failed. A closed pipe stays a
+    ``BrokenPipeError`` (ended quietly). Everything else is the wrapped stream's.
+    """
+
+    def __init__(self, stream: object) -> None:
+        self._stream = stream
+
+    def __getattr__(self, name: str) -> object:
+        return getattr(self._stream, name)
+
+    def _guarded(self, call: Callable[..., object], *args: object) -> object:
+        try:
+            return call(*args)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise _StdoutFailed(exc.strerror or " ".join(str(exc).split())) from exc
+
+    def write(self, text: str) -> object:
+        return self._guarded(self._stream.write, text)
+
+    def writelines(self, lines: Iterable[str]) -> object:
+        return self._guarded(self._stream.writelines, lines)
+
+    def flush(self) -> object:
+        return self._guarded(self._stream.flush)
+
+
+def _quiet_stdout() -> None:
+    """Point the standard output at the null device: no second error when it is flushed at exit."""
+    with contextlib.suppress(OSError, ValueError):
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse's parser with errors of one line (argparse prints its whole usage first); the
     exit status stays argparse's 2, a usage error, against 1 for a failed command."""
@@ -217,8 +261,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     args.invocation = shlex.join(["replication", *argv])
     func: Callable[[argparse.Namespace], int] = args.func
     name = f"replication {args.command}"
+    stdout, sys.stdout = sys.stdout, _GuardedStdout(sys.stdout)  # type: ignore[assignment]
     try:
-        return func(args)
+        status = func(args)
+        sys.stdout.flush()  # a file's full disk shows here, not as "Exception ignored" at exit
+        return status
+    except _StdoutFailed as exc:  # (the surface commands print after writing their files)
+        _quiet_stdout()
+        text = f"cannot write the standard output: {exc} (any file the command wrote is complete)"
+        print(f"{name}: error: {escaped(text)}", file=sys.stderr)
+        return 1
     except ReplicationError as exc:
         print(f"{name}: error: {escaped(str(exc))}", file=sys.stderr)
         return 1
@@ -226,8 +278,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{name}: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:  # the reader went away (``replication adt ... --json | head``): quietly
-        with contextlib.suppress(OSError, ValueError):  # no second error when stdout is flushed at exit
-            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        _quiet_stdout()
         return 141  # 128 + SIGPIPE, as a shell pipeline's other programs end
     except Exception as exc:
         if _interrupted(exc):  # Ctrl-C inside compiled code surfaces as another exception
@@ -239,6 +290,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         text = refused if refused is not None else _unexpected(exc)
         print(f"{name}: error: {escaped(text)}", file=sys.stderr)
         return 1
+    finally:
+        sys.stdout = stdout
 
 
 def run() -> None:
