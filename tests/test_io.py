@@ -332,6 +332,38 @@ def test_a_header_naming_the_axes_says_which_column_is_which(tmp_path, header):
     np.testing.assert_array_equal(load_cloud(tmp_path / "labels.csv"), CLOUD)  # other names: file order
 
 
+def test_a_csv_header_is_read_with_csv_quoting(tmp_path):
+    # was: '"z, mm","x, mm","y, mm"' split at every comma gave six names, a label: the columns
+    # were read in file order, without a word (depth axis x instead of z), while pandas reads it right
+    import pandas as pd
+
+    from replication.errors import CloudFileWarning
+
+    pd.DataFrame(CLOUD[:, [2, 0, 1]], columns=["z, mm", "x, mm", "y, mm"]).to_csv(
+        tmp_path / "h.csv", index=False
+    )
+    assert (tmp_path / "h.csv").read_text().startswith('"z, mm","x, mm","y, mm"\n')
+    with pytest.warns(
+        CloudFileWarning,
+        match=r'the header "z, mm", "x, mm", "y, mm" names .* columns 2, 3 and 1 \("x, mm", ',
+    ):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "h.csv"), CLOUD)
+    (tmp_path / "c.txt").write_text(
+        '# "y, mm","x, mm","z, mm"\n' + "".join(f"{y} {x} {z}\n" for x, y, z in CLOUD)
+    )
+    with pytest.warns(CloudFileWarning, match="columns 2, 1 and 3"):  # a comment above the data, too
+        np.testing.assert_array_equal(load_cloud(tmp_path / "c.txt"), CLOUD)
+
+
+def test_quoted_numbers_are_a_malformed_data_line_not_a_header(tmp_path):
+    (tmp_path / "q.csv").write_text('"1e-05","2","3"\n')  # was: "the file has a header but no data lines"
+    with pytest.raises(CloudFileError, match=r"line 1, column 1: '\"1e-05\"' is not a number"):
+        load_cloud(tmp_path / "q.csv")
+    (tmp_path / "h.csv").write_text('"x","y","z"\n"0","1.5","-2"\n')  # under a header: as before
+    with pytest.raises(CloudFileError, match=r"line 2, column 1: '\"0\"' is not a number"):
+        load_cloud(tmp_path / "h.csv")
+
+
 @pytest.mark.parametrize(
     ("header", "columns"),
     [("depth,x,y", "2, 3 and 1"), ("y,x,height", "2, 1 and 3"), ("Y [mm];X [mm];h", "2, 1 and 3")],

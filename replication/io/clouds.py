@@ -3,7 +3,8 @@
 Text files hold three numeric columns (x, y, z) separated by commas or white space, with an
 optional header line and optional ``#`` comments (a whole line, or the end of one). A header
 that names the axes (``z,x,y``, ``X [mm],Y [mm],Z [mm]``, or two of them: ``depth,x,y``) says
-which column is which; a header naming none, or each in its own column, is a label. A comment
+which column is which; a header naming none, or each in its own column, is a label. A comma-
+separated header is read with CSV quoting (``"z, mm","x, mm","y, mm"`` names z, x, y). A comment
 line just above the data that names all three axes, as ``numpy.savetxt(..., header="y x z")``
 writes it (``# y x z``), is such a header too.
 A first line ``0,1,2`` (or ``0 1 2``) with no comment above it is refused (see
@@ -17,6 +18,7 @@ and, where it applies, the line.
 
 from __future__ import annotations
 
+import csv
 import io
 import math
 import os
@@ -104,10 +106,23 @@ def _comment_header(path: Path, lines: list[str], first_data: int) -> tuple[list
 
 def _header_tokens(text: str) -> list[str]:
     """The names of a header line; in a whitespace-separated one, a unit in brackets belongs to
-    the name before it (``y [mm] x [mm] z [mm]`` names three columns, not six)."""
+    the name before it (``y [mm] x [mm] z [mm]`` names three columns, not six).
+
+    A comma-separated header is read with CSV quoting, as pandas writes it: ``"z, mm","x, mm",
+    "y, mm"`` names three columns, not six (split at every comma, it was taken for a label and
+    the columns read in file order).
+    """
     if "," in text:
-        return _split(text, True)
+        try:
+            return [name.strip() for name in next(csv.reader([text], skipinitialspace=True, strict=True))]
+        except csv.Error:  # unbalanced quotes: the names between the commas, quotes and all
+            return _split(text, True)
     return _UNIT.sub("", text).split()
+
+
+def _names(tokens: list[str]) -> str:
+    """Header names for a message, a name holding a comma in quotes (``"z, mm", "x, mm"``)."""
+    return ", ".join(f'"{t.strip()}"' if "," in t else t.strip() for t in tokens)
 
 
 #: A unit in brackets or parentheses after a name, with the white space before it.
@@ -136,7 +151,8 @@ def _load_text(path: Path) -> np.ndarray:
     first_tokens = _split(numbered[0][1], first_comma)
     commented = _comment_header(path, lines, numbered[0][0])
     header, order = commented if commented is not None else (first_tokens, None)
-    if not any(_is_number(t) for t in first_tokens) and any(c.isalpha() for c in numbered[0][1]):
+    # (a quoted number is a number here: a line of them is a malformed data line, not a header)
+    if not any(_is_number(t.strip("\"'")) for t in first_tokens) and any(c.isalpha() for c in numbered[0][1]):
         # a header line: names, no numeric token (a malformed data line such as "1;2;3" has no
         # letter, and is reported as line 1, not taken for a header and line 2 blamed)
         first_tokens = _header_tokens(numbered[0][1])
@@ -148,7 +164,7 @@ def _load_text(path: Path) -> np.ndarray:
         if commented is None or not labels:  # a label header (east,north,height) leaves the comment's order
             if commented is not None and named != order:
                 raise CloudFileError(
-                    f"{path}: the comment {' '.join(header)} and the header {','.join(first_tokens)} name "
+                    f"{path}: the comment {_names(header)} and the header {_names(first_tokens)} name "
                     "the columns in different orders: keep the one that is right"
                 )
             header, order = first_tokens, named
@@ -172,8 +188,8 @@ def _load_text(path: Path) -> np.ndarray:
         return data
     columns = ", ".join(str(k + 1) for k in order[:2]) + f" and {order[2] + 1}"
     warnings.warn(
-        f"{path}: the header {', '.join(header)} names the columns in another order, so x, y "
-        f"and z were read from columns {columns} ({', '.join(header[k] for k in order)})",
+        f"{path}: the header {_names(header)} names the columns in another order, so x, y "
+        f"and z were read from columns {columns} ({_names([header[k] for k in order])})",
         CloudFileWarning,
         stacklevel=3,
     )
@@ -181,7 +197,8 @@ def _load_text(path: Path) -> np.ndarray:
 
 
 def _axis_name(token: str) -> str:
-    """``x`` of a header such as ``X``, ``x [mm]``, ``x_mm`` or ``"x"``; other names as they are."""
+    """``x`` of a header such as ``X``, ``x [mm]``, ``x_mm``, ``x, mm`` or ``"x"``; other names as
+    they are."""
     name = token.strip().strip("\"'").lower()
     for k, char in enumerate(name):
         if not char.isalnum():
@@ -216,7 +233,7 @@ def _header_order(path: Path, tokens: list[str]) -> list[int] | None:
         order = [names.index(axis) if axis in names else unnamed for axis in ("x", "y", "z")]
         return None if order == [0, 1, 2] else order
     raise CloudFileError(
-        f"{path}: the header {', '.join(t.strip() for t in tokens)} names "
+        f"{path}: the header {_names(tokens)} names "
         + (
             f"the axis {', '.join(sorted(set(n for n in named if named.count(n) > 1)))} more than once"
             if len(set(named)) != len(named)
