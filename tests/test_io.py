@@ -355,6 +355,29 @@ def test_a_csv_header_is_read_with_csv_quoting(tmp_path):
         np.testing.assert_array_equal(load_cloud(tmp_path / "c.txt"), CLOUD)
 
 
+@pytest.mark.parametrize(
+    ("name", "header"),
+    [
+        ("pos.csv", "pos_z,pos_x,pos_y"),  # the last _-separated part of each name is an axis
+        ("pos_mm.csv", "pos_Z [mm],pos_X [mm],pos_Y [mm]"),
+        ("matlab.txt", "% z x y"),  # a MATLAB/Octave comment sign before the names
+        ("semicolons.txt", "# z;x;y"),  # a comment naming the axes with ; between them
+    ],
+)
+def test_more_headers_naming_the_axes_say_which_column_is_which(tmp_path, name, header):
+    # was: each read in file order without a word (z taken for x)
+    from replication.errors import CloudFileWarning
+
+    sep = "," if name.endswith(".csv") else " "
+    (tmp_path / name).write_text(f"{header}\n" + "".join(f"{z}{sep}{x}{sep}{y}\n" for x, y, z in CLOUD))
+    with pytest.warns(CloudFileWarning, match=r"x, y and z were read from columns 2, 3 and 1"):
+        np.testing.assert_array_equal(load_cloud(tmp_path / name), CLOUD)
+    # not recognised, as before: a comment with other words, or names whose axis is not their last part
+    for other in ("# Z X Y units mm", "pos_z_mm,pos_x_mm,pos_y_mm", "posz,posx,posy"):
+        (tmp_path / "other.csv").write_text(f"{other}\n" + "".join(f"{x},{y},{z}\n" for x, y, z in CLOUD))
+        np.testing.assert_array_equal(load_cloud(tmp_path / "other.csv"), CLOUD)
+
+
 def test_quoted_numbers_are_a_malformed_data_line_not_a_header(tmp_path):
     (tmp_path / "q.csv").write_text('"1e-05","2","3"\n')  # was: "the file has a header but no data lines"
     with pytest.raises(CloudFileError, match=r"line 1, column 1: '\"1e-05\"' is not a number"):
@@ -384,7 +407,11 @@ def test_a_header_naming_two_axes_names_the_third_column_too(tmp_path, header, c
 
 @pytest.mark.parametrize(
     ("header", "match"),
-    [("a,x,b", "names x as column 2 but not the other axes"), ("x,x,z", "names the axis x more than once")],
+    [
+        ("a,x,b", "names x as column 2 but not the other axes"),
+        ("x,x,z", "names the axis x more than once"),
+        ("id,pos_x,c", "names x as column 2 but not the other axes"),  # was: a label, file order
+    ],
 )
 def test_a_header_that_cannot_say_which_column_is_which_is_refused(tmp_path, header, match):
     (tmp_path / "h.csv").write_text(f"{header}\n0,1,2.5\n3,4,5\n6,7.5,8\n")

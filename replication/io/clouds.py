@@ -2,11 +2,12 @@
 
 Text files hold three numeric columns (x, y, z) separated by commas or white space, with an
 optional header line and optional ``#`` comments (a whole line, or the end of one). A header
-that names the axes (``z,x,y``, ``X [mm],Y [mm],Z [mm]``, or two of them: ``depth,x,y``) says
-which column is which; a header naming none, or each in its own column, is a label. A comma-
-separated header is read with CSV quoting (``"z, mm","x, mm","y, mm"`` names z, x, y). A comment
-line just above the data that names all three axes, as ``numpy.savetxt(..., header="y x z")``
-writes it (``# y x z``), is such a header too.
+that names the axes (``z,x,y``, ``X [mm],Y [mm],Z [mm]``, ``pos_z,pos_x,pos_y``, ``z;x;y``, or
+two of them: ``depth,x,y``; a leading ``%`` is not a name) says which column is which; a header
+naming none, or each in its own column, is a label. A comma-separated header is read with CSV
+quoting (``"z, mm","x, mm","y, mm"`` names z, x, y). A comment line just above the data that
+names all three axes, as ``numpy.savetxt(..., header="y x z")`` writes it (``# y x z``), is
+such a header too (a comment with other words, ``# Z X Y units mm``, is a comment).
 A first line ``0,1,2`` (or ``0 1 2``) with no comment above it is refused (see
 :func:`_column_number_header`): it is pandas' header of column numbers or the point (0, 1, 2),
 and a guess either way would make the same cloud give other numbers as ``.csv`` than as
@@ -110,13 +111,17 @@ def _header_tokens(text: str) -> list[str]:
 
     A comma-separated header is read with CSV quoting, as pandas writes it: ``"z, mm","x, mm",
     "y, mm"`` names three columns, not six (split at every comma, it was taken for a label and
-    the columns read in file order).
+    the columns read in file order). Without a comma, ``;`` separates the names when there is
+    one (``# z;y;x``). A leading ``%`` (a MATLAB/Octave comment sign) is not a name.
     """
+    text = text.strip().removeprefix("%")
     if "," in text:
         try:
             return [name.strip() for name in next(csv.reader([text], skipinitialspace=True, strict=True))]
         except csv.Error:  # unbalanced quotes: the names between the commas, quotes and all
             return _split(text, True)
+    if ";" in text:
+        return [name.strip() for name in text.split(";")]
     return _UNIT.sub("", text).split()
 
 
@@ -197,13 +202,16 @@ def _load_text(path: Path) -> np.ndarray:
 
 
 def _axis_name(token: str) -> str:
-    """``x`` of a header such as ``X``, ``x [mm]``, ``x_mm``, ``x, mm`` or ``"x"``; other names as
-    they are."""
+    """``x`` of a header such as ``X``, ``x [mm]``, ``x_mm``, ``x, mm``, ``"x"`` or ``pos_x`` (a
+    name whose last ``_``-separated part is the axis letter); other names up to their first
+    character that is not a letter or digit (``depth [mm]`` is ``depth``)."""
     name = token.strip().strip("\"'").lower()
-    for k, char in enumerate(name):
-        if not char.isalnum():
-            return name[:k]
-    return name
+    word = next((name[:k] for k, char in enumerate(name) if not char.isalnum()), name)
+    if word in ("x", "y", "z"):
+        return word
+    stem = next((name[:k] for k, char in enumerate(name) if not (char.isalnum() or char == "_")), name)
+    prefix, _, last = stem.rpartition("_")
+    return last if prefix and last in ("x", "y", "z") else word
 
 
 def _header_order(path: Path, tokens: list[str]) -> list[int] | None:
