@@ -444,6 +444,16 @@ def test_malformed_vtk_files_give_one_line_and_no_vtk_log(capfd, tmp_path):
         assert one_line(err, "force") and "not a readable VTK surface" in err, err
 
 
+def test_a_vtk_file_that_is_not_utf8_text_gives_one_line(capfd, tmp_path):
+    # was: "replication force: error: unexpected TypeError: a bytes-like object is required, not 'str'"
+    (tmp_path / "bad1.vtk").write_bytes(b"\xff\xfe not vtk\n")
+    assert main(["force", str(tmp_path / "bad1.vtk")]) == 1
+    out, err = capfd.readouterr()
+    assert (
+        one_line(err, "force") and r"not a readable VTK surface (VTK: Unrecognized file type: \xff\xfe" in err
+    )
+
+
 def test_jet_that_misses_prints_zero_not_minus_zero(capsys, tmp_path):
     save_cloud(np.random.default_rng(0).integers(0, 13, (40, 3)).astype(float), tmp_path / "c.csv")
     code, out, err = run(capsys, "force", tmp_path / "c.csv", "--center", "500", "0", "--no-domain")

@@ -489,6 +489,25 @@ def test_read_surface_missing_and_garbage(tmp_path):
         read_surface(tmp_path / "bad.vtp")
 
 
+@pytest.mark.parametrize(
+    "content",
+    [
+        b"\xff\xfe not vtk\n",
+        np.random.default_rng(0).bytes(300),
+        "not vtk\n".encode("utf-16"),
+        b"x\x1b[31m red" + b"y" * 500 + b"\n",  # text, but with a control character, and long
+    ],
+    ids=["ff-fe", "random", "utf-16", "escape"],
+)
+def test_a_vtk_file_that_is_not_text_is_not_a_readable_surface(tmp_path, content):
+    # was: "unexpected TypeError: a bytes-like object is required, not 'str'": VTK's messages
+    # came back as bytes when they quoted bytes that are not UTF-8
+    (tmp_path / "bad.vtk").write_bytes(content)
+    with pytest.raises(CloudFileError, match=r"bad.vtk: not a readable VTK surface \(VTK: ") as info:
+        read_surface(tmp_path / "bad.vtk")
+    assert str(info.value).isprintable() and len(str(info.value)) < len(str(tmp_path)) + 200
+
+
 # ---- found in review ------------------------------------------------------------------------
 
 

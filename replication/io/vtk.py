@@ -19,7 +19,7 @@ from typing import Literal, Protocol
 
 import numpy as np
 
-from replication.errors import CloudFileError, InputError, OutputError
+from replication.errors import CloudFileError, InputError, OutputError, escaped, shortened
 from replication.io.atomic import atomic_path, atomic_write_text
 from replication.io.paths import lookup
 
@@ -218,10 +218,13 @@ def _vtk_messages() -> Iterator[list[str]]:
     finally:
         vtkOutputWindow.SetInstance(previous)
         text = window.GetOutput()
+        if isinstance(text, bytes):  # not UTF-8: VTK quotes the bytes of a file that is not text
+            text = text.decode("utf-8", errors="backslashreplace")
         for block in text.split("\n\n"):
             lines = [line.strip() for line in block.strip().splitlines()]
             if len(lines) >= 2 and lines[0].startswith("ERROR"):
-                messages.append(lines[1].split("): ", 1)[-1])
+                # one line, not too long: random bytes quoted as the "file type" filled the terminal
+                messages.append(shortened(escaped(lines[1].split("): ", 1)[-1]), head=100, tail=40))
 
 
 def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
