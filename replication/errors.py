@@ -26,6 +26,7 @@ __all__ = [
     "ExecutorError",
     "DuplicatePointsWarning",
     "CloudFileWarning",
+    "JetResolutionWarning",
 ]
 
 
@@ -94,3 +95,8 @@ class DuplicatePointsWarning(UserWarning):
 
 class CloudFileWarning(UserWarning):
     """A point-cloud file that was read, but with a doubt worth telling the user about."""
+
+
+class JetResolutionWarning(UserWarning):
+    """A jet whose streamlets are coarser than the surface under it: none strikes it, and its
+    force of 0 N says nothing about the jet."""

@@ -464,6 +464,16 @@ def test_jet_that_misses_prints_zero_not_minus_zero(capsys, tmp_path):
     assert json.loads(out)["axial_force_N"] == 0 and "-0.0" not in out.split('"axial_force_N"')[1][:8]
 
 
+def test_a_jet_coarser_than_the_surface_says_so_not_that_it_misses(capsys, tmp_path):
+    # was: "the jet misses the surface ... (check --center ...)" for a 1000 mm jet over the whole surface
+    save_cloud(np.random.default_rng(1).random((101, 3)) * [36, 30, 13], tmp_path / "c.csv")
+    code, out, err = run(capsys, "force", tmp_path / "c.csv", "--diameter", "1000")
+    assert code == 0 and "axial force 0 N" in out and "misses" not in err and "--center" not in err
+    assert err.startswith("warning: the surface lies under the jet, but none of the jet's 101 streamlets")
+    assert "rings 62.5 mm wide" in err and "resolution 16 is the first to put streamlets on it" in err
+    assert err.count("\n") == 1
+
+
 def test_random_bytes_npy_never_advises_pickle(capsys, tmp_path):
     (tmp_path / "r.npy").write_bytes(np.random.default_rng(0).bytes(300))
     np.save(tmp_path / "o.npy", np.array([{"a": 1}], dtype=object), allow_pickle=True)

@@ -93,6 +93,29 @@ def test_jet_that_misses_has_zero_force():
     assert result.mass_flow_total == UNBOUNDED.mass_flow > 0
 
 
+@pytest.mark.parametrize("config", [UNBOUNDED, UNBOUNDED_FULL])
+def test_streamlets_coarser_than_the_surface_under_the_jet_warn(config):
+    """A 1000 mm jet over a 40 mm plate: no streamlet lands on it, and the force of 0 N came
+    with no word (the command line said the jet misses and to check --center)."""
+    from replication.errors import JetResolutionWarning
+
+    points, triangles = plate(y_min=0)
+    small = points * [0.5, 0.5, 1] + [8, 0.5, 0]  # x -2..38, y 0.5..20.5 mm
+    wide = JetConfig(diameter=1.0, domain=None, full_jet=config.full_jet)
+    with pytest.warns(
+        JetResolutionWarning, match=r"none of the jet's \d+ streamlets strikes it: they lie on "
+    ) as w:
+        result = jet_force(small, triangles, wide)
+    assert result.n_streamlets_hit == 0 and result.axial_force == 0  # the force is as it was
+    assert "rings 62.5 mm wide" in str(w[0].message) and "(40 x 20 mm in x-y)" in str(w[0].message)
+    finer = int(str(w[0].message).split("resolution ")[-1].split(" ")[0])
+    assert finer > 8 and jet_force(small, triangles, wide, resolution=finer).n_streamlets_hit > 0
+    assert w[0].filename == __file__  # it points at the caller
+    surface = adt(np.vstack([small, small[:2] + [[1, 1, 0], [2, 3, 0]]]), depth="z")
+    with pytest.warns(JetResolutionWarning, match="the surface lies under the jet"):
+        surface_force(surface, wide)
+
+
 def test_partial_hit_conserves_mass():
     """A plate under part of the jet: the mass flow that hits it all leaves (tolerance 1e-13)."""
     points, triangles = plate(y_min=0)

@@ -62,6 +62,7 @@ from numpy.typing import ArrayLike
 
 from replication._aot import kernel
 from replication.casestudy import _sheetcodes as codes
+from replication.casestudy.coverage import warn_if_too_coarse
 from replication.casestudy.jetconfig import JetConfig  # re-exported: jet.JetConfig keeps working
 from replication.casestudy.losses import SheetLosses
 from replication.casestudy.mesh import check_domain, check_height_field, weld
@@ -227,6 +228,22 @@ def _trace(
     mesh, points = kernel("sheet_prepare")(frozen(points, np.float64), triangles, frozen(raw, np.int64), half)
     xy, mass = jet_streamlets(config, resolution)
     start = locate(points[:, :2], triangles, xy, raw, convex=convex)
+    if not np.any(start >= 0):  # it misses: tell a jet elsewhere from one too coarse for the surface
+
+        def streamlets(finer: int) -> np.ndarray:
+            return xy if finer == resolution else jet_streamlets.__wrapped__(config, finer)[0]  # not cached
+
+        warn_if_too_coarse(
+            points[:, :2],
+            triangles,
+            raw,
+            convex,
+            config,
+            resolution,
+            streamlets,
+            MAX_RESOLUTION,
+            stacklevel=3,
+        )
     max_steps = MAX_STEPS_PER_TRIANGLE * triangles.shape[0] + 64
     sx, sy = np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1])
     jet = (sx, sy, frozen(mass), start.astype(np.int64), float(config.velocity), 4 * resolution)
@@ -289,6 +306,12 @@ def jet_force(
         Non-finite coordinates, bad indices, a mesh that is not a height field over x-y, a
         surface outside the domain (or below y = 0 with the half jet), a bad resolution.
 
+    Warns
+    -----
+    JetResolutionWarning
+        The surface lies under the jet but no streamlet strikes it: the streamlets are coarser
+        than the surface (the message names a resolution that puts streamlets on it).
+
     Notes
     -----
     Paper section 6 (the water-jet case study); the model is described in the module notes.
@@ -326,6 +349,11 @@ def surface_force(
     An ADT surface is a Delaunay triangulation of its projection, so it is a valid height
     field over a convex footprint by construction and skips the mesh checks of
     :func:`jet_force`.
+
+    Warns
+    -----
+    JetResolutionWarning
+        As :func:`jet_force`: no streamlet strikes the surface under the jet.
 
     Notes
     -----

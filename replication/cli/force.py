@@ -60,7 +60,7 @@ def _cmd_force(args: argparse.Namespace) -> int:
     from replication.casestudy.jetconfig import DIAMETER_RANGE
     from replication.casestudy.units import to_metres
     from replication.cli.sph import check_force_options, force_sph
-    from replication.errors import InputError
+    from replication.errors import InputError, JetResolutionWarning
 
     check_force_options(args)
     if args.no_domain and args.domain is not None:
@@ -101,10 +101,11 @@ def _cmd_force(args: argparse.Namespace) -> int:
         return force_sph(args, config, points, triangles, what, shared)
     # load the compiled kernels first (once per process), so the time is one evaluation's
     jet_force([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], JetConfig(domain=None), resolution=1)
-    start = time.perf_counter()
-    result = jet_force(points, triangles, config, resolution=args.resolution)
-    seconds = time.perf_counter() - start
-    if result.n_streamlets_hit == 0:
+    with relay_warnings() as caught:  # the streamlets may be too coarse for the surface: the library says so
+        start = time.perf_counter()
+        result = jet_force(points, triangles, config, resolution=args.resolution)
+        seconds = time.perf_counter() - start
+    if result.n_streamlets_hit == 0 and not any(issubclass(w.category, JetResolutionWarning) for w in caught):
         print(
             f"warning: the jet misses the surface: none of its {result.n_streamlets} streamlets strikes it, "
             "so the force is 0 N (check --center and where the surface lies)",
