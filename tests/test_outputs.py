@@ -224,6 +224,27 @@ def test_an_empty_output_name_is_a_misused_option(capsys, tmp_path, monkeypatch,
         atomic_write_text("", "x")
 
 
+@pytest.mark.parametrize(
+    ("command", "option"),
+    [
+        ("report", "--output-dir"), ("report", "--asv-results"), ("report", "--readme"),
+        ("table1", "--output-dir"), ("reproduce", "--output-dir"), ("casestudy", "--run-dir"),
+        ("casestudy", "--output-dir"), ("casestudy", "--cache-dir"), ("force", "--run-dir"),
+        ("sph", "--output-dir"), ("validate-jet", "--output-dir"), ("validate-jet", "--cache-dir"),
+    ],
+)  # fmt: skip
+def test_an_empty_directory_name_is_a_misused_option(capsys, tmp_path, monkeypatch, command, option):
+    # report --output-dir '' quietly re-rendered reports/, casestudy --run-dir '' made a new run
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        main([command, option, ""])
+    out, err = capsys.readouterr()
+    assert exc.value.code == 2 and out == "" and err.count("\n") == 1, err
+    assert err.startswith(f"replication {command}: error: argument {option}: expected a "), err
+    assert err.split("expected a ", 1)[1].startswith(("directory name, got ''", "file name, got ''"))
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_save_cloud_bad_suffix_refused_before_work(capsys, tmp_path):
     code, _, err = run(capsys, "adt", "--random", "30", "--seed", "1", "--save-cloud", tmp_path / "c.dat")
     assert code == 1 and "--save-cloud" in err and "'.dat'" in err

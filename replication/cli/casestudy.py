@@ -35,6 +35,7 @@ from replication.cli.casestudy_sph import (
     write_fitness_record,
 )
 from replication.cli.common import (
+    directory_name,
     emit_json,
     positive_int,
     say_simulations_finish,
@@ -364,6 +365,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=seed, help="base seed; run k uses [seed, k] (default 2019)")
     p.add_argument(
         "--run-dir",
+        type=directory_name,
         metavar="DIR",
         help="checkpoint directory (default: casestudy-runs/run-<time>-<process id>)",
     )
@@ -381,6 +383,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--output-dir",
+        type=directory_name,
         metavar="DIR",
         help=f"reports directory (default: {DEFAULT_DIR}/ for the paper's settings, {QUICK_DIR}/ for "
         "--quick, else, or with --rescore sph or --solver sph, RUN_DIR/report/)",

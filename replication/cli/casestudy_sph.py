@@ -11,7 +11,7 @@ import argparse
 import sys
 from typing import Any
 
-from replication.cli.common import positive_int
+from replication.cli.common import directory_name, positive_int
 
 #: The SPH options (dest names); they need --rescore sph or --solver sph.
 SPH_OPTIONS = ("top", "particle_radius", "duration", "sph_timeout", "cache_dir")
@@ -55,6 +55,7 @@ def add_rescore_options(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument(
         "--cache-dir",
+        type=directory_name,
         metavar="DIR",
         help="the SPH cache (default $REPLICATION_SPH_CACHE or .sph-cache/): a rerun reuses every "
         "finished simulation",

@@ -19,6 +19,7 @@ __all__ = [
     "add_cloud_source",
     "add_frame_options",
     "emit_json",
+    "directory_name",
     "file_name",
     "finite_positive",
     "frame_kwargs",
@@ -98,6 +99,13 @@ def file_name(text: str) -> str:
     """argparse type: the name of a file to write, not empty (``--save-cloud ''`` was ignored)."""
     if not text:
         raise argparse.ArgumentTypeError("expected a file name, got ''")
+    return text
+
+
+def directory_name(text: str) -> str:
+    """argparse type: the name of a directory, not empty (``--output-dir ''`` meant the default)."""
+    if not text:
+        raise argparse.ArgumentTypeError("expected a directory name, got ''")
     return text
 
 

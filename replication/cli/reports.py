@@ -11,7 +11,13 @@ from pathlib import Path
 from typing import Any
 
 from replication.cli.casestudy import plan_casestudy, run_and_report
-from replication.cli.common import positive_int, say_when_publishing_waits, worker_count
+from replication.cli.common import (
+    directory_name,
+    file_name,
+    positive_int,
+    say_when_publishing_waits,
+    worker_count,
+)
 from replication.cli.outputs import (
     DEFAULT_DIR,
     QUICK_DIR,
@@ -336,6 +342,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         )
         p.add_argument(
             "--output-dir",
+            type=directory_name,
             metavar="DIR",
             help=f"where reports, figures and data go (default {DEFAULT_DIR}/, or {QUICK_DIR}/ with --quick)",
         )
@@ -362,7 +369,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog=EPILOGS["report"],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--output-dir", metavar="DIR", help=f"the reports directory (default: {DEFAULT_DIR}/)")
+    p.add_argument(
+        "--output-dir",
+        type=directory_name,
+        metavar="DIR",
+        help=f"the reports directory (default: {DEFAULT_DIR}/)",
+    )
     p.add_argument(
         "--performance",
         action="store_true",
@@ -373,6 +385,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--asv-results",
+        type=directory_name,
         metavar="DIR",
         help=f"asv's results directory (default: {DEFAULT_ASV_RESULTS}; if absent, the archive alone)",
     )
@@ -384,6 +397,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "only with --output-dir, so that the committed page keeps its settings)",
     )
     p.add_argument(
-        "--readme", metavar="FILE", help="also refresh the headline block of this README from the data"
+        "--readme",
+        type=file_name,
+        metavar="FILE",
+        help="also refresh the headline block of this README from the data",
     )
     p.set_defaults(func=_cmd_report)

@@ -10,7 +10,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from replication.cli.common import emit_json, say_when_publishing_waits, worker_count
+from replication.cli.common import directory_name, emit_json, say_when_publishing_waits, worker_count
 
 SOLVERS = ("sheet", "sph")
 #: The SPH options of ``replication force`` (dest names); they need --solver sph.
@@ -58,6 +58,7 @@ def add_force_options(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument(
         "--run-dir",
+        type=directory_name,
         metavar="DIR",
         help="keep the simulation's files (scene, log, series CSV) in DIR: a new or empty directory, "
         "or an earlier simulation's, whose files are replaced",
@@ -343,6 +344,7 @@ reason, and the report says which.
     )
     p.add_argument(
         "--output-dir",
+        type=directory_name,
         metavar="DIR",
         help=f"where the report, figures and data go (default {DEFAULT_DIR}/, or {QUICK_DIR}/ with --quick)",
     )

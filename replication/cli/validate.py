@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from replication.cli.common import worker_count
+from replication.cli.common import directory_name, worker_count
 from replication.cli.validate_run import run_validation_report
 
 EPILOG = """\
@@ -130,7 +130,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help=f"3 surfaces, coarse particles (under a minute) into {QUICK_DIR}/",
     )
-    p.add_argument("--cache-dir", metavar="DIR", help="the SPH cache (default .sph-cache/)")
+    p.add_argument(
+        "--cache-dir", type=directory_name, metavar="DIR", help="the SPH cache (default .sph-cache/)"
+    )
     p.add_argument(
         "--from-cache",
         action="store_true",
@@ -170,6 +172,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--output-dir",
+        type=directory_name,
         metavar="DIR",
         help=(
             f"where the report, figures and data go (default {DEFAULT_DIR}/, or {QUICK_DIR}/ with --quick; "
