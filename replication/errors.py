@@ -11,22 +11,23 @@ exit status) can catch one type. Errors about the caller's data or parameters ar
 from __future__ import annotations
 
 __all__ = [
-    "escaped",
-    "shown",
-    "shortened",
-    "ReplicationError",
-    "InputError",
+    "CheckpointError",
     "CloudFileError",
+    "CloudFileWarning",
     "DegenerateInputError",
+    "DuplicatePointsWarning",
+    "ExecutorError",
+    "InputError",
+    "JetResolutionWarning",
     "OutputError",
+    "ReplicationError",
+    "ReportDataError",
     "SimulationError",
     "SolverUnavailableError",
-    "CheckpointError",
-    "ReportDataError",
-    "ExecutorError",
-    "DuplicatePointsWarning",
-    "CloudFileWarning",
-    "JetResolutionWarning",
+    "UsageError",
+    "escaped",
+    "shortened",
+    "shown",
 ]
 
 
@@ -55,6 +56,11 @@ class ReplicationError(Exception):
 
 class InputError(ReplicationError, ValueError):
     """Bad input data or parameters; the message names the bad value."""
+
+
+class UsageError(InputError):
+    """Options that cannot go together, or one given without the option it needs: a misused
+    command line, which the command line answers with exit status 2, as argparse does."""
 
 
 class CloudFileError(InputError):

@@ -91,7 +91,7 @@ def test_casestudy_help(capsys):
 
 def test_resume_needs_a_run_directory_with_checkpoints(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    assert main(["casestudy", *TINY, "--resume"]) == 1
+    assert main(["casestudy", *TINY, "--resume"]) == 2  # --resume without --run-dir: misused
     assert "name the directory to resume" in capsys.readouterr().err
     (tmp_path / "empty").mkdir()
     assert main(["casestudy", *TINY, "--resume", "--run-dir", "empty"]) == 1

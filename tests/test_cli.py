@@ -120,13 +120,10 @@ def test_bad_input_one_line_error_and_no_output(capsys, tmp_path, content, match
     ("argv", "match"),
     [
         (["adt", "missing.csv"], "not found"),
-        (["adt"], "give a point-cloud file INPUT"),
         (
             ["adt", "--random", "5", "--seed", "1", "-o", "/no/such/dir/s.vtk"],
             "output directory does not exist",
         ),
-        (["adt", "--seed", "1", "x.csv"], "--seed applies only with --random"),
-        (["adt", "x.csv", "--random", "4"], "not both"),
         (["adt", "--random", "5", "-o", "s.stl"], "suffix"),
         (["adt", "--random", "5", "--step", "0"], "step"),
         (["adt", "--random", "5", "--box", "1", "0", "0", "1", "0", "1"], "xmin > xmax"),
@@ -137,6 +134,22 @@ def test_usage_problems_exit_1(capsys, tmp_path, monkeypatch, argv, match):
     monkeypatch.chdir(tmp_path)
     code, _, err = run(capsys, *argv)
     assert code == 1 and match in err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["adt"], "give a point-cloud file INPUT"),
+        (["adt", "--seed", "1", "x.csv"], "--seed applies only with --random"),
+        (["adt", "x.csv", "--random", "4"], "not both"),
+    ],
+)
+def test_options_that_do_not_go_together_exit_2(capsys, tmp_path, monkeypatch, argv, match):
+    """A misused command line, as argparse's own errors: exit status 2 (they exited 1)."""
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run(capsys, *argv)
+    assert code == 2 and match in err and err.count("\n") == 1 and "(see 'replication adt --help')" in err
     assert list(tmp_path.iterdir()) == []
 
 
@@ -350,7 +363,7 @@ def test_negative_seed_is_a_usage_error(capsys):
 def test_split_refuses_a_depth_rule(capsys, tmp_path):
     save_cloud(np.random.default_rng(0).random((30, 3)) - 0.5, tmp_path / "c.csv")
     code, _, err = run(capsys, "adt", str(tmp_path / "c.csv"), "--split", "z=0", "--depth", "x")
-    assert code == 1 and "--depth x does not apply with --split" in err
+    assert code == 2 and "--depth x does not apply with --split" in err
 
 
 @pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs /proc")

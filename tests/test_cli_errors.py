@@ -251,7 +251,7 @@ def test_malformed_scheduler_address_refused_before_work(
 def test_executor_options_that_would_be_ignored(capsys, tmp_path, monkeypatch, no_experiment, options, match):
     monkeypatch.chdir(tmp_path)
     code, _, err = run(capsys, "casestudy", *TINY[:6], *options)
-    assert code == 1 and one_line(err, "casestudy") and match in err
+    assert code == 2 and one_line(err, "casestudy") and match in err  # a misused command line
 
 
 # ---- report -------------------------------------------------------------------------------------
@@ -323,9 +323,9 @@ def test_report_with_other_settings_leaves_the_committed_page(capsys, tmp_path, 
     (reports / "performance.md").write_text("committed\n")
     monkeypatch.chdir(tmp_path)
     code, _, err = run(capsys, "report", "--performance", "--commits", "1")
-    assert code == 1 and one_line(err, "report") and "--commits 1" in err and "--output-dir" in err, err
+    assert code == 2 and one_line(err, "report") and "--commits 1" in err and "--output-dir" in err, err
     code, _, err = run(capsys, "report", "--commits", "3")
-    assert code == 1 and one_line(err, "report") and "add --performance" in err, err
+    assert code == 2 and one_line(err, "report") and "add --performance" in err, err
     assert (reports / "performance.md").read_text() == "committed\n"
     assert sorted(p.name for p in reports.rglob("*")) == ["data", "performance.md"]
     code, out, err = run(capsys, "report", "--performance", "--commits", "1", "--output-dir", reports)

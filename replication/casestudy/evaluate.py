@@ -35,7 +35,7 @@ from replication.casestudy.interrupts import (
     ignore_interrupts,
     quiet_worker_context,
 )
-from replication.errors import DuplicatePointsWarning, InputError
+from replication.errors import DuplicatePointsWarning, InputError, UsageError
 
 __all__ = [
     "EXECUTORS",
@@ -165,17 +165,17 @@ def check_executor_options(kind: str, workers: int | None = None, scheduler: str
     if workers is not None and (isinstance(workers, bool) or workers < 1):
         raise InputError(f"workers must be a positive integer, got {workers!r}")
     if kind == "serial" and workers is not None:
-        raise InputError(
+        raise UsageError(
             f"--workers {workers} does not apply to the serial executor (it evaluates in this process); "
             "use --executor process or dask"
         )
     if scheduler is not None and kind in ("serial", "process"):
-        raise InputError(
+        raise UsageError(
             f"--scheduler names a dask cluster, which the {kind} executor does not use; "
             "drop --executor or use --executor dask"
         )
     if scheduler is not None and workers is not None:
-        raise InputError(
+        raise UsageError(
             "--workers starts a local cluster of that size; a cluster named by --scheduler "
             "brings its own workers: give one of them"
         )

@@ -2,13 +2,14 @@
 
 Only this package prints or sets an exit status: library errors (:class:`ReplicationError`)
 become a one-line message on stderr and exit status 1; usage errors exit with status 2
-(argparse); an interrupt (Ctrl-C) exits with 130. The system refusing a file the user named
-(an operating-system error that carries the file name, such as a name too long) and a lack
-of memory are one line too, saying so. So is a standard output that cannot be written (a
-full disk, ``> /dev/full``): the line says it was the standard output, not a file the
-command wrote. Any other exception is a bug or an environment problem nobody foresaw: it
-too becomes one line, naming its type, with a hint to run again with ``--debug`` for the
-traceback.
+(argparse's, and :class:`~replication.errors.UsageError`: options that do not go together,
+or one given without the option it needs); an interrupt (Ctrl-C) exits with 130. The
+system refusing a file the user named (an operating-system error that carries the file
+name, such as a name too long) and a lack of memory are one line too, saying so. So is a
+standard output that cannot be written (a full disk, ``> /dev/full``): the line says it was
+the standard output, not a file the command wrote. Any other exception is a bug or an
+environment problem nobody foresaw: it too becomes one line, naming its type, with a hint to
+run again with ``--debug`` for the traceback.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import sys
 from collections.abc import Callable, Iterable, Sequence
 from typing import NoReturn
 
-from replication.errors import ReplicationError, escaped, shortened
+from replication.errors import ReplicationError, UsageError, escaped, shortened
 
 __all__ = ["COMMANDS", "build_parser", "main", "run"]
 
@@ -271,6 +272,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         text = f"cannot write the standard output: {exc} (any file the command wrote is complete)"
         print(f"{name}: error: {escaped(text)}", file=sys.stderr)
         return 1
+    except UsageError as exc:  # options that do not go together: a usage error, as argparse's
+        print(f"{name}: error: {escaped(str(exc))} (see '{name} --help')", file=sys.stderr)
+        return 2
     except ReplicationError as exc:
         print(f"{name}: error: {escaped(str(exc))}", file=sys.stderr)
         return 1

@@ -167,14 +167,14 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     from replication.casestudy.checkpoints import load_run
     from replication.casestudy.evaluate import check_executor_options
     from replication.casestudy.rundir import checkpoints, read_config
-    from replication.errors import InputError
+    from replication.errors import InputError, UsageError
     from replication.io.paths import check_report_dir, check_writable_dir, lookup
 
     check_executor_options(args.executor, args.workers, args.scheduler)
     rescore = rescore_config(args, _requested_config(args))
     if args.resume:
         if not args.run_dir:
-            raise InputError("--resume continues the runs in --run-dir DIR: name the directory to resume")
+            raise UsageError("--resume continues the runs in --run-dir DIR: name the directory to resume")
         run_dir = Path(args.run_dir)
         config = _resume_config(args, run_dir)
     else:

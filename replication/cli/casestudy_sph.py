@@ -75,21 +75,21 @@ def rescore_config(args: argparse.Namespace, config: Any) -> Any:
     SolverUnavailableError
         The engine is not installed (the message names ``pip install ".[sph]"``).
     """
-    from replication.errors import InputError
+    from replication.errors import UsageError
 
     solver = getattr(args, "solver", None) == "sph"
     if solver and getattr(args, "rescore", None) is not None:
-        raise InputError(
+        raise UsageError(
             "--rescore sph re-scores the thin-sheet GA's winners; with --solver sph every individual is "
             "already scored by SPH: give one of them"
         )
     if getattr(args, "yes", False) and not solver:
-        raise InputError("--yes applies only with --solver sph")
+        raise UsageError("--yes applies only with --solver sph")
     if getattr(args, "rescore", None) is None:
         given = [name for name in SPH_OPTIONS if getattr(args, name, None) is not None]
         if given and (given[0] == "top" or not solver):
             need = "--rescore sph" if given[0] == "top" else "--rescore sph or --solver sph"
-            raise InputError(f"--{given[0].replace('_', '-')} applies only with {need}")
+            raise UsageError(f"--{given[0].replace('_', '-')} applies only with {need}")
         if not solver:
             return None
     from pathlib import Path

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from replication.errors import DuplicatePointsWarning, InputError, escaped
+from replication.errors import DuplicatePointsWarning, UsageError, escaped
 
 __all__ = [
     "add_cloud_source",
@@ -202,13 +202,13 @@ def load_or_generate(args: argparse.Namespace) -> tuple[np.ndarray, str, dict[st
 
     if args.random is None:
         if args.input is None:
-            raise InputError("give a point-cloud file INPUT, or --random N for a generated cloud")
+            raise UsageError("give a point-cloud file INPUT, or --random N for a generated cloud")
         for flag in ("seed", "box", "step", "save_cloud"):
             if getattr(args, flag) is not None:
-                raise InputError(f"--{flag.replace('_', '-')} applies only with --random")
+                raise UsageError(f"--{flag.replace('_', '-')} applies only with --random")
         return load_cloud(args.input), str(args.input), {}
     if args.input is not None:
-        raise InputError(f"give either INPUT ({args.input}) or --random, not both")
+        raise UsageError(f"give either INPUT ({args.input}) or --random, not both")
     box = CASE_STUDY_BOX if args.box is None else Box.from_bounds(args.box)
     writes = args.save_cloud is not None or (
         args.command == "adt" and getattr(args, "output", None) is not None

@@ -150,7 +150,7 @@ def _fill_speed_block(readme: Path | None, out: Path) -> list[Path]:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from replication.errors import InputError, ReportDataError
+    from replication.errors import ReportDataError, UsageError
     from replication.io.paths import check_report_dir, lookup, same_file
     from replication.report.casestudy import render_casestudy
     from replication.report.index import update_readme
@@ -159,9 +159,9 @@ def _cmd_report(args: argparse.Namespace) -> int:
     out = Path(args.output_dir or DEFAULT_DIR)
     commits = DEFAULT_COMMITS if args.commits is None else args.commits
     if args.commits is not None and not args.performance:
-        raise InputError(f"--commits {args.commits} applies to performance.md only: add --performance")
+        raise UsageError(f"--commits {args.commits} applies to performance.md only: add --performance")
     if commits != DEFAULT_COMMITS and not args.output_dir:  # reports/ is written with its settings only
-        raise InputError(
+        raise UsageError(
             f"--commits {commits} would redraw the committed {out / 'performance.md'}, which shows "
             f"{DEFAULT_COMMITS} commits: copy {out}/ and name the copy with --output-dir to draw it there"
         )

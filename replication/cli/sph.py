@@ -129,15 +129,15 @@ def check_force_options(args: argparse.Namespace) -> None:
     are not an earlier simulation's."""
     from pathlib import Path
 
-    from replication.errors import InputError
+    from replication.errors import InputError, UsageError
 
     if args.solver != "sph":
         given = [name for name in FORCE_OPTIONS if getattr(args, name, None) is not None]
         if given:
             flag = "--" + given[0].replace("_", "-")
-            raise InputError(f"{flag} applies only with --solver sph")
+            raise UsageError(f"{flag} applies only with --solver sph")
     if getattr(args, "sound_speed", None) is not None and args.sph_method != "wcsph":
-        raise InputError(
+        raise UsageError(
             "--sound-speed applies only with --sph-method wcsph (the default dfsph is incompressible: "
             "it has no speed of sound)"
         )

@@ -62,7 +62,7 @@ JSON exchange format.
 
 
 def _cmd_adt(args: argparse.Namespace) -> int:
-    from replication.errors import InputError
+    from replication.errors import UsageError
     from replication.io import surface_format, write_surface
     from replication.surfaces import AXES, adt, closed_adt, parse_split
 
@@ -75,7 +75,7 @@ def _cmd_adt(args: argparse.Namespace) -> int:
         start = time.perf_counter()
         if args.split:
             if args.depth != "min":
-                raise InputError(
+                raise UsageError(
                     f"--depth {args.depth} does not apply with --split: each half is a height field over "
                     "the split plane, whose normal is the depth axis"
                 )

@@ -60,18 +60,18 @@ def _check_options(args: argparse.Namespace) -> None:
     """
     from pathlib import Path
 
-    from replication.errors import InputError
+    from replication.errors import InputError, UsageError
     from replication.io.paths import check_writable_dir
 
     if args.from_cache and args.rebuild_surfaces:
-        raise InputError(
+        raise UsageError(
             "--from-cache changes nothing in the SPH cache, but --rebuild-surfaces builds the surfaces "
             "afresh (running the study's GAs) and stores them there: give one of them"
         )
     if args.ga_run_dir is None:
         return
     if args.quick:
-        raise InputError(
+        raise UsageError(
             f"--ga-run-dir {args.ga_run_dir}: the quick study has no GA winners to score; "
             "drop --quick or --ga-run-dir"
         )
@@ -90,7 +90,7 @@ def _check_custom_run(args: argparse.Namespace) -> None:
     says (``--output-dir reports`` replaces the committed one knowingly).
     """
     from replication.cli.outputs import DEFAULT_DIR
-    from replication.errors import InputError
+    from replication.errors import UsageError
     from replication.experiments.jet_validation import ValidationConfig
 
     if args.output_dir is not None or args.quick:
@@ -102,7 +102,7 @@ def _check_custom_run(args: argparse.Namespace) -> None:
     if args.ga_run_dir is not None:
         custom.append(f"--ga-run-dir {args.ga_run_dir}")
     if custom:
-        raise InputError(
+        raise UsageError(
             f"with {' and '.join(custom)} the study may differ from the committed one in {DEFAULT_DIR}/: "
             f"name a report directory with --output-dir (--output-dir {DEFAULT_DIR} to replace it)"
         )
