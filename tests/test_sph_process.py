@@ -184,7 +184,7 @@ def test_a_failed_simulation_is_one_line_on_the_command_line(monkeypatch, tmp_pa
 def test_sph_options_need_the_sph_solver(tmp_path, capsys):
     path = tmp_path / "flat.csv"
     save_cloud(flat_plate_cloud(), path)
-    assert main(["force", str(path), "--particle-radius", "1"]) == 1
+    assert main(["force", str(path), "--particle-radius", "1"]) == 2  # a misused command line
     assert "--particle-radius applies only with --solver sph" in capsys.readouterr().err
 
 
