@@ -737,3 +737,13 @@ def test_ctrl_c_while_the_command_line_is_parsed_is_one_line(capsys, monkeypatch
     monkeypatch.setattr(cli, "build_parser", interrupted)
     assert cli.main(["casestudy", "--quick"]) == 130
     assert capsys.readouterr().err == "replication casestudy: interrupted\n"
+
+
+def test_a_closed_standard_output_loses_nothing(capsys, tmp_path, monkeypatch):
+    """With the standard output closed (``>&-``) sys.stdout is None: print() drops the text and
+    the command succeeds. The guard of a full standard output made it an unexpected error."""
+    import sys
+
+    monkeypatch.setattr(sys, "stdout", None)
+    assert main(["adt", "--random", "20", "--seed", "1", "-o", str(tmp_path / "s.vtk")]) == 0
+    assert (tmp_path / "s.vtk").is_file() and sys.stdout is None

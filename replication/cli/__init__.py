@@ -262,10 +262,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     args.invocation = shlex.join(["replication", *argv])
     func: Callable[[argparse.Namespace], int] = args.func
     name = f"replication {args.command}"
-    stdout, sys.stdout = sys.stdout, _GuardedStdout(sys.stdout)  # type: ignore[assignment]
+    stdout = sys.stdout
+    if stdout is not None:  # None when the standard output is closed (>&-): print() drops the text
+        sys.stdout = _GuardedStdout(stdout)  # type: ignore[assignment]
     try:
         status = func(args)
-        sys.stdout.flush()  # a file's full disk shows here, not as "Exception ignored" at exit
+        if sys.stdout is not None:
+            sys.stdout.flush()  # a file's full disk shows here, not as "Exception ignored" at exit
         return status
     except _StdoutFailed as exc:  # (the surface commands print after writing their files)
         _quiet_stdout()
