@@ -362,6 +362,7 @@ def test_a_csv_header_is_read_with_csv_quoting(tmp_path):
         ("pos_mm.csv", "pos_Z [mm],pos_X [mm],pos_Y [mm]"),
         ("matlab.txt", "% z x y"),  # a MATLAB/Octave comment sign before the names
         ("semicolons.txt", "# z;x;y"),  # a comment naming the axes with ; between them
+        ("datum.txt", "z [m; NAP] x [m] y [m]"),  # a ';' inside a unit separates no names
     ],
 )
 def test_more_headers_naming_the_axes_say_which_column_is_which(tmp_path, name, header):

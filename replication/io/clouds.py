@@ -120,9 +120,10 @@ def _header_tokens(text: str) -> list[str]:
             return [name.strip() for name in next(csv.reader([text], skipinitialspace=True, strict=True))]
         except csv.Error:  # unbalanced quotes: the names between the commas, quotes and all
             return _split(text, True)
-    if ";" in text:
-        return [name.strip() for name in text.split(";")]
-    return _UNIT.sub("", text).split()
+    bare = _UNIT.sub("", text)  # a ';' inside a unit ('z [m; NAP]') separates nothing
+    if ";" in bare:
+        return [name.strip() for name in bare.split(";")]
+    return bare.split()
 
 
 def _names(tokens: list[str]) -> str:
