@@ -60,19 +60,19 @@ def _cmd_force(args: argparse.Namespace) -> int:
     from replication.casestudy.jetconfig import DIAMETER_RANGE
     from replication.casestudy.units import to_metres
     from replication.cli.sph import check_force_options, force_sph
-    from replication.errors import JetResolutionWarning, UsageError
+    from replication.errors import InputError, JetResolutionWarning, UsageError
 
     check_force_options(args)
     if args.no_domain and args.domain is not None:
         raise UsageError("give either --domain or --no-domain, not both")
     # checked here in the millimetres given (JetConfig's messages quote metres)
     if not (math.isfinite(args.diameter) and args.diameter > 0):
-        raise UsageError(f"--diameter must be a positive number of millimetres, got {args.diameter:g}")
+        raise InputError(f"--diameter must be a positive number of millimetres, got {args.diameter:g}")
     low, high = (1000.0 * limit for limit in DIAMETER_RANGE)
     if not low <= args.diameter <= high:
-        raise UsageError(f"--diameter must lie in [{low:g}, {high:g}] mm, got {args.diameter:g}")
+        raise InputError(f"--diameter must lie in [{low:g}, {high:g}] mm, got {args.diameter:g}")
     if not all(math.isfinite(v) for v in args.center):
-        raise UsageError(
+        raise InputError(
             f"--center must be 2 finite numbers of millimetres, got {args.center[0]:g} {args.center[1]:g}"
         )
     if not args.full_jet and args.center[1] != 0:
@@ -81,7 +81,7 @@ def _cmd_force(args: argparse.Namespace) -> int:
             f"{args.center[1]:g}; add --full-jet for an off-centre jet"
         )
     if args.domain is not None and not all(math.isfinite(v) and v > 0 for v in args.domain):
-        raise UsageError(
+        raise InputError(
             f"--domain sizes must be positive millimetres, got {' '.join(map(str, args.domain))}"
         )
     # millimetres -> metres by the model's one conversion (replication.casestudy.units)
