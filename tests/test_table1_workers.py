@@ -158,13 +158,11 @@ def test_a_worker_count_beyond_the_machine_is_refused_before_anything_starts(
     command, capsys, tmp_path, monkeypatch
 ):
     """``casestudy --workers 100000`` started worker processes until memory ran out."""
-    import os
-
     from replication.cli import main
-    from replication.cli.common import WORKERS_PER_CPU
+    from replication.cli.common import WORKERS_PER_CPU, usable_cpus
 
     monkeypatch.chdir(tmp_path)
-    limit = WORKERS_PER_CPU * (os.cpu_count() or 1)
+    limit = WORKERS_PER_CPU * usable_cpus()
     with pytest.raises(SystemExit) as exc:
         main([command, "--workers", str(limit + 1)])
     err = capsys.readouterr().err

@@ -30,6 +30,7 @@ __all__ = [
     "relay_warnings",
     "seed",
     "warm_up",
+    "usable_cpus",
     "worker_count",
 ]
 
@@ -60,10 +61,15 @@ seed = _int_at_least(0, "a non-negative integer seed")
 WORKERS_PER_CPU = 4
 
 
+def usable_cpus() -> int:
+    """The CPUs this process may run on (its affinity where the system tells it, else all)."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
 def worker_count(text: str) -> int:
     """argparse type: a number of local worker processes, 1 to :data:`WORKERS_PER_CPU` per CPU."""
     value = positive_int(text)
-    cpus = os.cpu_count() or 1
+    cpus = usable_cpus()
     if value > WORKERS_PER_CPU * cpus:
         raise argparse.ArgumentTypeError(
             f"at most {WORKERS_PER_CPU * cpus} worker processes on this machine's {cpus} CPU(s) "
