@@ -41,7 +41,7 @@ CONNECT_TIMEOUT_S = 5.0
 #: What to install for the dask executor: the extra of this project's checkout, as for SPH
 #: (``replication`` on PyPI is another project, so ``pip install 'replication[dask]'`` would
 #: install that one).
-DASK_HINT = 'dask evaluation needs the optional extra: pip install ".[dask]"'
+DASK_HINT = 'dask evaluation needs the optional extra: pip install ".[dask]" in the project\'s checkout'
 
 
 def require_dask() -> None:

@@ -53,7 +53,7 @@ __all__ = [
 ENGINE = "pysplishsplash"
 #: The engine's supported release series.
 ENGINE_SERIES = "2.19"
-INSTALL_HINT = 'pip install ".[sph]"'
+INSTALL_HINT = 'pip install ".[sph]" in the project\'s checkout'
 #: Wall-clock limit of one simulation (s) unless the caller gives one.
 DEFAULT_TIMEOUT = 1800.0
 
