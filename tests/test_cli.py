@@ -364,6 +364,9 @@ def test_split_refuses_a_depth_rule(capsys, tmp_path):
     save_cloud(np.random.default_rng(0).random((30, 3)) - 0.5, tmp_path / "c.csv")
     code, _, err = run(capsys, "adt", str(tmp_path / "c.csv"), "--split", "z=0", "--depth", "x")
     assert code == 2 and "--depth x does not apply with --split" in err
+    # refused before the cloud is read (it came after loading and warming the kernels)
+    code, _, err = run(capsys, "adt", str(tmp_path / "missing.csv"), "--split", "z=0", "--depth", "x")
+    assert code == 2 and "--depth x does not apply with --split" in err
 
 
 @pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs /proc")

@@ -66,6 +66,11 @@ def _cmd_adt(args: argparse.Namespace) -> int:
     from replication.io import surface_format, write_surface
     from replication.surfaces import AXES, adt, closed_adt, parse_split
 
+    if args.split and args.depth != "min":  # before any work: the cloud is not even read
+        raise UsageError(
+            f"--depth {args.depth} does not apply with --split: each half is a height field over "
+            "the split plane, whose normal is the depth axis"
+        )
     fmt = surface_format(args.output, args.format) if args.output else args.format
     check_outputs(args)
     suffix_warning(args.output, args.format, SURFACE_KINDS)
@@ -74,11 +79,6 @@ def _cmd_adt(args: argparse.Namespace) -> int:
         startup_s = warm_up("adt", args)
         start = time.perf_counter()
         if args.split:
-            if args.depth != "min":
-                raise UsageError(
-                    f"--depth {args.depth} does not apply with --split: each half is a height field over "
-                    "the split plane, whose normal is the depth axis"
-                )
             closed = closed_adt(
                 cloud, parse_split(args.split), duplicates=args.duplicates, backend=args.backend
             )
