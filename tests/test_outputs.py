@@ -130,7 +130,7 @@ def test_a_failed_move_puts_back_the_outputs_already_moved(capsys, tmp_path, mon
     real_replace = os.replace
 
     def replace(src, dst):
-        if os.path.basename(dst) == "c.csv" and ".old" not in os.path.basename(src):
+        if os.path.basename(dst) == "c.csv":  # the cloud's own move (a backup's goes to s.vtk)
             raise OSError(28, "No space left on device")
         real_replace(src, dst)
 
@@ -331,3 +331,20 @@ def test_lookup_tells_absent_file_and_directory_and_names_a_refused_path(tmp_pat
     assert not lookup("a\0b", InputError, "--x").exists  # as Path.exists() answers
     with pytest.raises(InputError, match=r"^--x /.*\.\.\.a+: File name too long$"):
         lookup(tmp_path / ("a" * 300), InputError, "--x")
+
+
+def test_a_failed_nested_block_leaves_its_files_out_of_the_outer_one(tmp_path):
+    """A nested all_or_none joins the outer one; if it fails and the caller goes on, the files
+    it wrote are dropped, not moved into place with the outer block's."""
+    from replication.io.atomic import all_or_none, atomic_write_text
+
+    (tmp_path / "b.txt").write_text("old b\n")
+    with all_or_none():
+        atomic_write_text(tmp_path / "a.txt", "new a\n")
+        with pytest.raises(RuntimeError):
+            with all_or_none():
+                atomic_write_text(tmp_path / "b.txt", "new b\n")
+                raise RuntimeError("the inner writer failed")
+        assert sorted(p.name for p in tmp_path.iterdir() if not p.name.startswith(".")) == ["b.txt"]
+    assert (tmp_path / "a.txt").read_text() == "new a\n" and (tmp_path / "b.txt").read_text() == "old b\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.txt"]  # no temporary left

@@ -226,15 +226,26 @@ def all_or_none() -> Iterator[None]:
     meanwhile. An error or a Ctrl-C in the block removes the temporaries and leaves every
     destination as it was. Should a move fail, the files already moved are put back: the
     old file of each (kept under a temporary name until the moves are done) or, for a new
-    one, none. A nested block joins the outer one.
+    one, none. A nested block joins the outer one; when it fails, its own files are dropped,
+    so an outer block that catches the error moves only the others. The block's files are
+    those written in its context: a thread started inside it writes outside it.
 
     Raises
     ------
     OutputError
         When a file cannot be moved into place (the destinations are then as they were).
     """
-    if _STAGED.get() is not None:
-        yield
+    outer = _STAGED.get()
+    if outer is not None:  # a nested block: its files join the outer one's, unless it fails
+        start = len(outer)
+        try:
+            yield
+        except BaseException:
+            for tmp, _ in outer[start:]:  # a caller that catches the error must not see them moved
+                with contextlib.suppress(OSError):
+                    tmp.unlink()
+            del outer[start:]
+            raise
         return
     staged: list[tuple[Path, Path]] = []
     token = _STAGED.set(staged)
