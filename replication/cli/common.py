@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from replication.errors import DuplicatePointsWarning, UsageError, escaped
+from replication.errors import DuplicatePointsWarning, InputError, UsageError, escaped
 
 __all__ = [
     "add_cloud_source",
@@ -21,6 +21,7 @@ __all__ = [
     "emit_json",
     "directory_name",
     "file_name",
+    "int_between",
     "finite_positive",
     "frame_kwargs",
     "load_or_generate",
@@ -52,6 +53,21 @@ def _int_at_least(minimum: int, what: str):
 
 #: argparse type: an integer >= 1.
 positive_int = _int_at_least(1, "a positive integer")
+
+
+def int_between(minimum: int, maximum: int, what: str):
+    """An argparse type accepting integers in ``minimum .. maximum``; ``what`` names them."""
+    at_least = _int_at_least(minimum, what)
+
+    def parse(text: str) -> int:
+        value = at_least(text)
+        if value > maximum:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {value}")
+        return value
+
+    return parse
+
+
 #: argparse type: a non-negative integer seed.
 seed = _int_at_least(0, "a non-negative integer seed")
 
@@ -160,7 +176,10 @@ def add_cloud_source(p: argparse.ArgumentParser) -> None:
         help="domain of the random cloud (default: the case study's 0 36 0 30 0 13, in mm)",
     )
     g.add_argument(
-        "--step", type=float, metavar="H", help="draw coordinates on a lattice of step H (the case study: 1)"
+        "--step",
+        type=finite_positive,
+        metavar="H",
+        help="draw coordinates on a lattice of step H (the case study: 1)",
     )
     g.add_argument(
         "--save-cloud",
@@ -215,7 +234,10 @@ def load_or_generate(args: argparse.Namespace) -> tuple[np.ndarray, str, dict[st
         return load_cloud(args.input), str(args.input), {}
     if args.input is not None:
         raise UsageError(f"give either INPUT ({args.input}) or --random, not both")
-    box = CASE_STUDY_BOX if args.box is None else Box.from_bounds(args.box)
+    try:
+        box = CASE_STUDY_BOX if args.box is None else Box.from_bounds(args.box)
+    except InputError as exc:  # bounds out of order: a misused --box, refused before any work
+        raise UsageError(f"--box {' '.join(f'{v:g}' for v in args.box)}: {exc}") from exc
     writes = args.save_cloud is not None or (
         args.command == "adt" and getattr(args, "output", None) is not None
     )

@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from replication.cli.common import emit_json, positive_int, relay_warnings
+from replication.cli.common import emit_json, int_between, relay_warnings
 
 EPILOG_FORCE = """\
 examples:
@@ -211,7 +211,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--resolution",
-        type=positive_int,
+        type=int_between(1, MAX_RESOLUTION, f"an integer from 1 to {MAX_RESOLUTION}"),
         default=DEFAULT_RESOLUTION,
         metavar="N",
         help=(

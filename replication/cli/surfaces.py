@@ -15,6 +15,7 @@ from replication.cli.common import (
     frame_kwargs,
     load_or_generate,
     pair,
+    positive_int,
     probability,
     relay_warnings,
     samples,
@@ -317,7 +318,9 @@ def register(sub: argparse._SubParsersAction) -> None:
             p.add_argument(
                 "--alpha", type=probability, default=0.05, help="significance level (default 0.05)"
             )
-        p.add_argument("--degree", type=int, default=2, help="NURBS degree in both directions (default 2)")
+        p.add_argument(
+            "--degree", type=positive_int, default=2, help="NURBS degree in both directions (default 2)"
+        )
         p.add_argument("--net", type=pair, metavar="MUxMV", help="impose the control net, e.g. 9x5")
         add_frame_options(p)
         p.add_argument("--json", action="store_true", help="print one JSON object")
