@@ -95,7 +95,9 @@ def test_reproduce_skips_the_sph_stage_without_the_engine(monkeypatch, tmp_path,
     monkeypatch.setattr(score, "ENGINE", "no_such_engine_module")
     monkeypatch.setattr(reports, "STAGES", (("sph", "the SPH study"),))
     assert main(["reproduce", "--quick", "--output-dir", str(tmp_path)]) == 0
-    assert '[skipped] sph: the SPH solver is not installed (pip install ".[sph]")' in capsys.readouterr().out
+    out = capsys.readouterr().out
+    hint = 'pip install ".[sph]" in the project\'s checkout'
+    assert f"[skipped] sph: the SPH solver is not installed ({hint})" in out
     assert not (tmp_path / "sph.md").exists()
 
 
