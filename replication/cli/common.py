@@ -21,8 +21,10 @@ __all__ = [
     "emit_json",
     "directory_name",
     "file_name",
+    "finite_float",
     "int_between",
     "finite_positive",
+    "float_between",
     "frame_kwargs",
     "load_or_generate",
     "pair",
@@ -107,6 +109,26 @@ def finite_positive(text: str) -> float:
     if not (np.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"expected a finite positive number, got {text!r}")
     return value
+
+
+def finite_float(text: str) -> float:
+    """argparse type: a finite number (``inf`` and ``nan`` are refused)."""
+    value = _float(text, "a number")
+    if not np.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def float_between(low: float, high: float, what: str):
+    """An argparse type accepting finite numbers in ``[low, high]``; ``what`` names them in errors."""
+
+    def parse(text: str) -> float:
+        value = _float(text, what)
+        if not (np.isfinite(value) and low <= value <= high):
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
+        return value
+
+    return parse
 
 
 def probability(text: str) -> float:

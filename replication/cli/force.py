@@ -3,13 +3,19 @@
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
-from replication.cli.common import emit_json, int_between, relay_warnings
+from replication.cli.common import (
+    emit_json,
+    finite_float,
+    finite_positive,
+    float_between,
+    int_between,
+    relay_warnings,
+)
 
 EPILOG_FORCE = """\
 examples:
@@ -57,32 +63,19 @@ def _load(path: str) -> tuple[Any, Any, str, int]:
 
 def _cmd_force(args: argparse.Namespace) -> int:
     from replication.casestudy import JetConfig, jet_force
-    from replication.casestudy.jetconfig import DIAMETER_RANGE
     from replication.casestudy.units import to_metres
     from replication.cli.sph import check_force_options, force_sph
-    from replication.errors import InputError, JetResolutionWarning, UsageError
+    from replication.errors import JetResolutionWarning, UsageError
 
     check_force_options(args)
     if args.no_domain and args.domain is not None:
         raise UsageError("give either --domain or --no-domain, not both")
-    # checked here in the millimetres given (JetConfig's messages quote metres)
-    if not (math.isfinite(args.diameter) and args.diameter > 0):
-        raise InputError(f"--diameter must be a positive number of millimetres, got {args.diameter:g}")
-    low, high = (1000.0 * limit for limit in DIAMETER_RANGE)
-    if not low <= args.diameter <= high:
-        raise InputError(f"--diameter must lie in [{low:g}, {high:g}] mm, got {args.diameter:g}")
-    if not all(math.isfinite(v) for v in args.center):
-        raise InputError(
-            f"--center must be 2 finite numbers of millimetres, got {args.center[0]:g} {args.center[1]:g}"
-        )
+    # the values themselves are checked by their options, in the millimetres given (JetConfig's
+    # messages quote metres); what is left is how they go together
     if not args.full_jet and args.center[1] != 0:
         raise UsageError(
             f"the half jet is centred on its symmetry plane y = 0, got --center {args.center[0]:g} "
             f"{args.center[1]:g}; add --full-jet for an off-centre jet"
-        )
-    if args.domain is not None and not all(math.isfinite(v) and v > 0 for v in args.domain):
-        raise InputError(
-            f"--domain sizes must be positive millimetres, got {' '.join(map(str, args.domain))}"
         )
     # millimetres -> metres by the model's one conversion (replication.casestudy.units)
     domain = None if args.no_domain else tuple(to_metres(args.domain or (36.0, 30.0, 13.0)).tolist())
@@ -175,6 +168,7 @@ def shared_report(
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``force`` subcommand."""
     from replication.casestudy import DEFAULT_RESOLUTION, MAX_RESOLUTION
+    from replication.casestudy.jetconfig import DIAMETER_RANGE
 
     p = sub.add_parser(
         "force",
@@ -191,21 +185,28 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="INPUT",
         help="point cloud (.csv, .txt, .xyz, .npy; triangulated by ADT with depth z) or surface (.vtk, .vtp)",
     )
+    low, high = (1000.0 * limit for limit in DIAMETER_RANGE)  # the model's range, in millimetres
     p.add_argument(
         "--center",
-        type=float,
+        type=finite_float,
         nargs=2,
         default=(18.0, 0.0),
         metavar=("X", "Y"),
         help="jet axis position in mm (default: 18 0)",
     )
     p.add_argument(
-        "--diameter", type=float, default=18.0, metavar="D", help="jet diameter in mm (default 18)"
+        "--diameter",
+        type=float_between(low, high, f"a diameter from {low:g} to {high:g} mm"),
+        default=18.0,
+        metavar="D",
+        help="jet diameter in mm (default 18)",
     )
     p.add_argument(
-        "--velocity", type=float, default=4.34, metavar="V", help="jet speed in m/s (default 4.34)"
+        "--velocity", type=finite_positive, default=4.34, metavar="V", help="jet speed in m/s (default 4.34)"
     )
-    p.add_argument("--density", type=float, default=1000.0, help="water density in kg/m^3 (default 1000)")
+    p.add_argument(
+        "--density", type=finite_positive, default=1000.0, help="water density in kg/m^3 (default 1000)"
+    )
     p.add_argument(
         "--full-jet", action="store_true", help="the whole jet on a surface spanning both sides of y = 0"
     )
@@ -221,7 +222,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--domain",
-        type=float,
+        type=finite_positive,
         nargs=3,
         metavar=("LX", "LY", "LZ"),
         help="domain the surface must lie in, mm: x 0..LX, y 0..LY (-LY..LY with --full-jet), "
