@@ -18,22 +18,22 @@ from replication.errors import DuplicatePointsWarning, InputError, UsageError, e
 __all__ = [
     "add_cloud_source",
     "add_frame_options",
-    "emit_json",
     "directory_name",
+    "emit_json",
     "file_name",
     "finite_float",
-    "int_between",
     "finite_positive",
     "float_between",
     "frame_kwargs",
+    "int_between",
     "load_or_generate",
     "pair",
     "positive_int",
     "probability",
     "relay_warnings",
     "seed",
-    "warm_up",
     "usable_cpus",
+    "warm_up",
     "worker_count",
 ]
 
@@ -139,18 +139,21 @@ def probability(text: str) -> float:
     return value
 
 
-def file_name(text: str) -> str:
-    """argparse type: the name of a file to write, not empty (``--save-cloud ''`` was ignored)."""
-    if not text:
-        raise argparse.ArgumentTypeError("expected a file name, got ''")
-    return text
+def _name(what: str):
+    """An argparse type accepting any name but the empty one; ``what`` names it in errors."""
+
+    def parse(text: str) -> str:
+        if not text:
+            raise argparse.ArgumentTypeError(f"expected {what}, got ''")
+        return text
+
+    return parse
 
 
-def directory_name(text: str) -> str:
-    """argparse type: the name of a directory, not empty (``--output-dir ''`` meant the default)."""
-    if not text:
-        raise argparse.ArgumentTypeError("expected a directory name, got ''")
-    return text
+#: argparse type: the name of a file to write, not empty (``--save-cloud ''`` was ignored).
+file_name = _name("a file name")
+#: argparse type: the name of a directory, not empty (``--output-dir ''`` meant the default).
+directory_name = _name("a directory name")
 
 
 def pair(text: str) -> tuple[int, int]:

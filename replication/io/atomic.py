@@ -241,9 +241,7 @@ def all_or_none() -> Iterator[None]:
         try:
             yield
         except BaseException:
-            for tmp, _ in outer[start:]:  # a caller that catches the error must not see them moved
-                with contextlib.suppress(OSError):
-                    tmp.unlink()
+            _drop(outer[start:])  # a caller that catches the error must not see them moved
             del outer[start:]
             raise
         return
@@ -257,9 +255,14 @@ def all_or_none() -> Iterator[None]:
         with interrupt_deferred():
             _move_all(staged)
     finally:
-        for tmp, _ in staged:  # what was not moved (all of them after an error)
-            with contextlib.suppress(OSError):
-                tmp.unlink()
+        _drop(staged)  # what was not moved (all of them after an error)
+
+
+def _drop(staged: list[tuple[Path, Path]]) -> None:
+    """Remove the temporary files of ``staged`` (those already moved are gone: nothing to do)."""
+    for tmp, _ in staged:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
 
 
 def _keep_old(final: Path) -> Path | None:
