@@ -100,7 +100,7 @@ def test_nothing_to_resume(capsys, tmp_path):
 def test_hint_after_an_interrupted_reproduce_quick(capsys, tmp_path, monkeypatch, reference):
     """reproduce --quick, Ctrl-C in the GA stage; the printed command finishes the reports."""
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr("os.cpu_count", lambda: 1)  # reproduce's automatic executor: serial, no pool start-up
+    monkeypatch.setattr("os.sched_getaffinity", lambda pid: {0}, raising=False)  # one usable CPU: serial
     monkeypatch.setattr(
         "replication.cli.reports._run_table1", lambda out, quick, command, workers=None: out / "table1.md"
     )

@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import math
-import os
 import statistics
 import time
 from collections import deque
@@ -46,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from replication.casestudy.interrupts import caused_by_interrupt
+from replication.cpus import usable_cpus
 from replication.errors import InputError
 
 __all__ = ["Batching", "Dispatcher", "Outcome", "evaluate_chunk", "worker_count"]
@@ -136,7 +136,7 @@ def worker_count(pool: cf.Executor) -> int:
     if callable(counter):
         return max(1, int(counter()))
     size = getattr(pool, "_max_workers", None)  # concurrent.futures pools
-    return max(1, int(size)) if isinstance(size, int) else (os.cpu_count() or 1)
+    return max(1, int(size)) if isinstance(size, int) else usable_cpus()
 
 
 class Dispatcher:

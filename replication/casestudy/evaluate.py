@@ -35,6 +35,7 @@ from replication.casestudy.interrupts import (
     ignore_interrupts,
     quiet_worker_context,
 )
+from replication.cpus import usable_cpus
 from replication.errors import DuplicatePointsWarning, InputError, UsageError
 
 __all__ = [
@@ -262,7 +263,7 @@ def executor(
     local cluster's workers and their simulations' engines are killed (see :mod:`.cluster`).
     """
     check_executor_options(kind, workers, scheduler)
-    n = workers or os.cpu_count() or 1
+    n = workers or usable_cpus()
     if kind == "auto":
         kind = "dask" if scheduler else ("process" if n > 1 else "serial")
     if kind == "serial":

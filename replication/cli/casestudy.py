@@ -303,11 +303,11 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
 def _workers(args: argparse.Namespace) -> int:
     """The local workers (a named cluster: 1, unknown): evaluations at once for the cost
     estimate, and processes drawing the report's figures."""
-    import os
+    from replication.cpus import usable_cpus
 
     if args.executor == "serial" or (args.scheduler and not args.workers):
         return 1
-    return args.workers or os.cpu_count() or 1
+    return args.workers or usable_cpus()
 
 
 def _cmd_casestudy(args: argparse.Namespace) -> int:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
-import os
 import sys
 import warnings
 from collections.abc import Iterator
@@ -13,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from replication.cpus import usable_cpus
 from replication.errors import DuplicatePointsWarning, InputError, UsageError, escaped
 
 __all__ = [
@@ -77,11 +77,6 @@ seed = _int_at_least(0, "a non-negative integer seed")
 #: workers at once, each holding the package (about 80-100 MB), and more than a few per core
 #: only compete for the cores; ``--workers 100000`` started processes until memory ran out.
 WORKERS_PER_CPU = 4
-
-
-def usable_cpus() -> int:
-    """The CPUs this process may run on (its affinity where the system tells it, else all)."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
 def worker_count(text: str) -> int:

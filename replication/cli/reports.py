@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from collections.abc import Callable
@@ -27,6 +26,7 @@ from replication.cli.outputs import (
     planned_output_dir,
 )
 from replication.cli.progress import progress_bar
+from replication.cpus import usable_cpus
 from replication.kernels import release_threads, warm_up
 
 #: asv's results directory in a checkout (``results_dir`` of asv.conf.json).
@@ -42,7 +42,7 @@ def _run_table1(out: Path, quick: bool, command: str, workers: int | None = None
     from replication.report.table1 import render_table1, save_table1_data
 
     config = Table1Config.quick_config() if quick else Table1Config()
-    workers = workers or os.cpu_count() or 1
+    workers = workers or usable_cpus()
     results = run_table1(config, progress=progress_bar, command=command, workers=workers)
     with say_when_publishing_waits():
         save_table1_data(results, out)
@@ -252,7 +252,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     print(f"replication reproduce: {kind} into {out}/")
     start = time.perf_counter()
     print("  preparing the compiled kernels (a fresh environment compiles them once: about 20 s)", flush=True)
-    warm_up(processes=args.workers or os.cpu_count() or 1)  # fresh environment: on two cores at once
+    warm_up(processes=args.workers or usable_cpus())  # fresh environment: on two cores at once
     print(f"  [done] kernels: compiled or loaded from numba's cache ({time.perf_counter() - start:.1f} s)")
     written: list[Path] = []
     for name, what in STAGES:

@@ -291,15 +291,14 @@ def run_sph_report(out: Path, quick: bool, command: str, workers: int | None = N
     worker process of its own; 1 runs them one after another in this process. Ctrl-C ends
     the simulations under way at once: the study keeps nothing of an unfinished run.
     """
-    import os
-
     from replication.casestudy.evaluate import executor
     from replication.cli.progress import progress
+    from replication.cpus import usable_cpus
     from replication.experiments.sph import SPHStudyConfig, run_sph_study
     from replication.report.sph import render_sph, save_sph_data
 
     config = SPHStudyConfig.quick() if quick else SPHStudyConfig()
-    at_once = min(workers or min(2, os.cpu_count() or 1), len(config.runs()))
+    at_once = min(workers or min(2, usable_cpus()), len(config.runs()))
     with progress(len(config.runs()), "SPH simulations") as bar:
 
         def tick(label: str) -> None:

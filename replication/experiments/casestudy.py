@@ -9,7 +9,6 @@ numbers beside ours. Everything is returned as DataFrames; nothing here writes a
 from __future__ import annotations
 
 import functools
-import os
 import time
 import warnings
 from collections.abc import Callable
@@ -32,6 +31,7 @@ from replication.casestudy.shapes import (
     pelton_bucket_cloud,
     pelton_bucket_surface,
 )
+from replication.cpus import usable_cpus
 from replication.errors import DuplicatePointsWarning
 from replication.experiments.casestudy_rescore import rescore_cost
 from replication.experiments.paper import PAPER_CASESTUDY
@@ -322,7 +322,7 @@ def run_casestudy(
         cost = rescore_cost(
             rescored.surfaces, wall_seconds=rescored.wall_seconds,
             thin_sheet_seconds=float(evaluation["median"].median()), runs=runs_frame, config=config,
-            cores=os.cpu_count() or 1, workers=rescored.workers,
+            cores=usable_cpus(), workers=rescored.workers,
         )  # fmt: skip
     record = provenance(
         command,
