@@ -60,8 +60,9 @@ AS_FROM_A_TERMINAL = (
 )
 
 
-def _interrupt(run_dir, executor_args, after_generation, delay, timeout=120):
-    """Start a GA run, press Ctrl-C (SIGINT to its process group) at the given moment."""
+def _interrupt(run_dir, executor_args, after_generation, delay, timeout=120, sig=signal.SIGINT):
+    """Start a GA run, press Ctrl-C (SIGINT to its process group) at the given moment; or send
+    SIGTERM to the command alone, as ``kill PID`` or a supervisor's stop does."""
     process = subprocess.Popen(
         [sys.executable, "-c", AS_FROM_A_TERMINAL, "casestudy", *ARGS, *executor_args,
          "--run-dir", str(run_dir)],
@@ -76,20 +77,24 @@ def _interrupt(run_dir, executor_args, after_generation, delay, timeout=120):
             time.sleep(0.002)
         time.sleep(delay)
         if process.poll() is None:
-            os.killpg(process.pid, signal.SIGINT)
+            if sig == signal.SIGINT:
+                os.killpg(process.pid, sig)
+            else:
+                os.kill(process.pid, sig)
 
     presser = threading.Thread(target=press_ctrl_c)
     presser.start()
     return process, presser
 
 
-def _check_stopped(process, presser, run_dir, timeout=180):
+def _check_stopped(process, presser, run_dir, timeout=180, status=130, said="interrupted"):
     out, err = process.communicate(timeout=timeout)
     presser.join()
-    assert process.returncode == 130, err
+    assert process.returncode == status, err
     with pytest.raises(ProcessLookupError):  # no worker, cluster or resource tracker is left behind
         os.killpg(process.pid, 0)
-    assert "Traceback" not in err and err.rstrip().endswith("replication casestudy: interrupted"), err
+    assert "Traceback" not in err and err.rstrip().endswith(f"replication casestudy: {said}"), err
+    assert not list(run_dir.glob(".*.tmp*"))  # no temporary of a write cut short
     hint = f"resume with: replication casestudy --run-dir {shlex.quote(str(run_dir))} --resume"  # as printed
     assert hint in err, err
     state = _state(run_dir)
@@ -107,6 +112,11 @@ CASES = {
     "process": (["--executor", "process", "--workers", "1"], 2, 0.01),
     "dask": (["--executor", "dask", "--workers", "1"], 2, 0.01),
 }
+#: SIGTERM to the command alone: the same stop, without waiting, exit status 143.
+TERMINATED = {
+    "sigterm-serial": (["--executor", "serial"], 2, 0.01),
+    "sigterm-process": (["--executor", "process", "--workers", "2"], 2, 0.01),
+}
 
 
 @pytest.fixture(scope="module")
@@ -115,6 +125,8 @@ def interrupted(tmp_path_factory):
     base = tmp_path_factory.mktemp("interrupted")
     cases = {name: case for name, case in CASES.items() if name != "dask" or _has_dask()}
     started = {name: (base / name, *_interrupt(base / name, *case)) for name, case in cases.items()}
+    for name, case in TERMINATED.items():
+        started[name] = (base / name, *_interrupt(base / name, *case, sig=signal.SIGTERM))
     yield started
     for _, process, presser in started.values():  # after a failed check: stop what still runs
         if process.poll() is None:
@@ -146,6 +158,15 @@ def test_ctrl_c_with_worker_processes(interrupted, uninterrupted, name):
         pytest.skip("dask is not installed")
     run_dir, process, presser = interrupted[name]
     _check_stopped(process, presser, run_dir)
+    run_ga(CONFIG, 0, run_dir=run_dir, pool_factory=serial, resume=True)
+    assert _state(run_dir) == uninterrupted
+
+
+@pytest.mark.parametrize("name", list(TERMINATED))
+def test_sigterm_stops_a_run_as_ctrl_c_does_and_it_resumes_identically(interrupted, uninterrupted, name):
+    """``kill PID`` used to end the command on the spot: no resume line, a write's temporary left."""
+    run_dir, process, presser = interrupted[name]
+    _check_stopped(process, presser, run_dir, status=143, said="terminated (SIGTERM)")
     run_ga(CONFIG, 0, run_dir=run_dir, pool_factory=serial, resume=True)
     assert _state(run_dir) == uninterrupted
 
@@ -225,6 +246,57 @@ def test_ctrl_c_again_abandons_the_simulation_under_way_and_leaves_no_process(tm
         for pid, kill in ((driver, os.kill), (process.pid, os.killpg)):
             with contextlib.suppress(ProcessLookupError, PermissionError):
                 kill(pid, signal.SIGKILL)
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            process.communicate(timeout=30)
+
+
+_TERMINATED_WHILE_SIMULATING = """
+import os, sys, time
+sys.path.insert(0, sys.argv[3])
+import workerfaults
+from replication.casestudy.evaluate import executor
+from replication.sigterm import sigterm_interrupts
+
+run_dir = sys.argv[1]
+waiting = lambda: print("waiting", flush=True)
+with sigterm_interrupts(), executor(sys.argv[4], workers=1, on_interrupt=waiting) as pool:
+    future = pool.submit(workerfaults.sleeping_simulation, run_dir, float(sys.argv[2]))
+    while not os.path.exists(os.path.join(run_dir, "pid")):
+        time.sleep(0.02)
+    print("started", flush=True)
+    future.result()
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", SIMULATION_EXECUTORS)
+def test_sigterm_abandons_the_simulation_under_way_at_once(tmp_path, kind):
+    """Ctrl-C lets a simulation under way finish (minutes); a command told to terminate does not wait."""
+    process = subprocess.Popen(
+        [sys.executable, "-c", _TERMINATED_WHILE_SIMULATING, str(tmp_path), "600", str(Path(__file__).parent),
+         kind],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+    )  # fmt: skip
+    driver = None
+    try:
+        lines = []
+        reader = threading.Thread(target=lambda: lines.append(process.stdout.readline()), daemon=True)
+        reader.start()
+        reader.join(timeout=60)
+        assert lines == ["started\n"], process.stderr.read() if process.poll() is not None else lines
+        driver = int((tmp_path / "pid").read_text())
+        started = time.monotonic()
+        process.send_signal(signal.SIGTERM)  # to the command alone
+        out, err = process.communicate(timeout=60)
+        assert time.monotonic() - started < 30 and "Terminated" in err and "waiting" not in out, err
+        assert not (tmp_path / "finished").exists()
+        assert _reaped(driver)  # killed on the way out by its worker, though a session of its own
+        assert_no_process_left(process.pid)
+    finally:
+        for pid, kill in ((driver, os.kill), (process.pid, os.killpg)):
+            if pid is not None:
+                with contextlib.suppress(ProcessLookupError, PermissionError):
+                    kill(pid, signal.SIGKILL)
         with contextlib.suppress(subprocess.TimeoutExpired):
             process.communicate(timeout=30)
 

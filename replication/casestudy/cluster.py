@@ -31,6 +31,7 @@ from collections.abc import Callable, Iterator
 
 from replication.casestudy.interrupts import sigint_ignored_by_children
 from replication.errors import ExecutorError, InputError
+from replication.sigterm import terminating
 
 __all__ = ["CONNECT_TIMEOUT_S", "check_scheduler_address", "dask_executor", "require_dask"]
 
@@ -221,6 +222,8 @@ def _dask_executor(client, on_interrupt, *, local: bool) -> Iterator[cf.Executor
         _quiet()
         try:
             client.cancel(list(pool._futures))  # the evaluations not started never start
+            if local and terminating():  # SIGTERM does not wait for the tasks under way
+                raise KeyboardInterrupt
             if local:
                 if on_interrupt is not None and isinstance(exc, KeyboardInterrupt):
                     on_interrupt()

@@ -37,6 +37,7 @@ from replication.casestudy.interrupts import (
 )
 from replication.cpus import usable_cpus
 from replication.errors import DuplicatePointsWarning, InputError, UsageError
+from replication.sigterm import terminating
 
 __all__ = [
     "EXECUTORS",
@@ -281,7 +282,7 @@ def executor(
                 yield pool
             except KeyboardInterrupt:
                 interrupted = True
-                if abandon_on_interrupt:
+                if abandon_on_interrupt or terminating():  # SIGTERM does not wait (replication.sigterm)
                     abandoned = True
                     _abandon(pool)  # the workers end, and with them the pool's manager thread
                 raise

@@ -3,7 +3,8 @@
 Only this package prints or sets an exit status: library errors (:class:`ReplicationError`)
 become a one-line message on stderr and exit status 1; usage errors exit with status 2
 (argparse's, and :class:`~replication.errors.UsageError`: options that do not go together,
-or one given without the option it needs); an interrupt (Ctrl-C) exits with 130. The
+or one given without the option it needs); an interrupt (Ctrl-C) exits with 130, and SIGTERM,
+which stops a command as Ctrl-C does but without waiting (:mod:`replication.sigterm`), with 143. The
 system refusing a file the user named (an operating-system error that carries the file
 name, such as a name too long) and a lack of memory are one line too, saying so. So is a
 standard output that cannot be written (a full disk, ``> /dev/full``): the line says it was
@@ -26,6 +27,8 @@ from collections.abc import Callable, Iterable, Sequence
 from typing import NoReturn
 
 from replication.errors import ReplicationError, UsageError, escaped, shortened
+from replication.sigterm import EXIT_STATUS as SIGTERM_EXIT
+from replication.sigterm import sigterm_interrupts, terminating
 
 __all__ = ["COMMANDS", "build_parser", "main", "run"]
 
@@ -266,7 +269,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if stdout is not None:  # None when the standard output is closed (>&-): print() drops the text
         sys.stdout = _GuardedStdout(stdout)  # type: ignore[assignment]
     try:
-        status = func(args)
+        with sigterm_interrupts():  # SIGTERM stops the command as Ctrl-C does (replication.sigterm)
+            status = func(args)
         if sys.stdout is not None:
             sys.stdout.flush()  # a file's full disk shows here, not as "Exception ignored" at exit
         return status
@@ -282,15 +286,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{name}: error: {escaped(str(exc))}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
-        print(f"{name}: interrupted", file=sys.stderr)
-        return 130
+        return _stopped(name)
     except BrokenPipeError:  # the reader went away (``replication adt ... --json | head``): quietly
         _quiet_stdout()
         return 141  # 128 + SIGPIPE, as a shell pipeline's other programs end
     except Exception as exc:
         if _interrupted(exc):  # Ctrl-C inside compiled code surfaces as another exception
-            print(f"{name}: interrupted", file=sys.stderr)
-            return 130
+            return _stopped(name)
         if args.debug:
             raise
         refused = _refused(exc)
@@ -299,6 +301,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     finally:
         sys.stdout = stdout
+
+
+def _stopped(name: str) -> int:
+    """Say that the command was stopped, by Ctrl-C (exit 130) or SIGTERM (143)."""
+    if terminating():
+        print(f"{name}: terminated (SIGTERM)", file=sys.stderr)
+        return SIGTERM_EXIT
+    print(f"{name}: interrupted", file=sys.stderr)
+    return 130
 
 
 def run() -> None:

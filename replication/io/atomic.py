@@ -21,9 +21,12 @@ import signal
 import socket
 import tempfile
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from types import FrameType
+from typing import Any
 
+from replication import sigterm
 from replication.errors import OutputError, shortened
 
 __all__ = [
@@ -190,24 +193,32 @@ def atomic_write_text(path: str | os.PathLike[str], text: str) -> int:
 
 @contextlib.contextmanager
 def interrupt_deferred() -> Iterator[None]:
-    """Hold a Ctrl-C (SIGINT) until the block ends, then raise it.
+    """Hold a Ctrl-C (SIGINT), and a SIGTERM taken as one, until the block ends, then raise it.
 
-    Only where Python's own handler is in place (in the main thread): an ignored SIGINT (a
-    background job) or an application's own handler is left to do what it does.
+    Only where Python's own SIGINT handler, or :mod:`replication.sigterm`'s SIGTERM handler,
+    is in place (in the main thread): an ignored SIGINT (a background job) or an
+    application's own handler is left to do what it does. A SIGTERM held here is raised as
+    :class:`~replication.sigterm.Terminated`, before a Ctrl-C held with it.
     """
-    if (
-        threading.current_thread() is not threading.main_thread()
-        or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
-    ):
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
+    held: dict[int, Callable[[int, FrameType | None], Any]] = {}
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        held[signal.SIGINT] = signal.default_int_handler
+    if sigterm.handler_installed():
+        held[signal.SIGTERM] = signal.getsignal(signal.SIGTERM)  # type: ignore[assignment]
     caught: list[int] = []
-    signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    for signum in held:
+        signal.signal(signum, lambda signum, frame: caught.append(signum))
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-    if caught:
+        for signum, handler in held.items():
+            signal.signal(signum, handler)
+    if signal.SIGTERM in caught:
+        held[signal.SIGTERM](signal.SIGTERM, None)  # raises Terminated, unless a SIGTERM came before
+    if signal.SIGINT in caught:
         raise KeyboardInterrupt
 
 
