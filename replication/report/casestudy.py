@@ -18,7 +18,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.patches import Wedge
 
-from replication.errors import DuplicatePointsWarning
+from replication.errors import DuplicatePointsWarning, ReportDataError
 from replication.experiments.casestudy import differences_from_paper
 from replication.report.casestudy_rescore import RESCORE_FILES, rescore_section, save_rescore_data  # issue 11
 from replication.report.casestudy_validation import fitness_note, validation_section  # issue 11
@@ -42,6 +42,10 @@ COLUMNS: dict[str, tuple[str, ...]] = {
     "claims": ("claim", "paper", "ours", "verdict", "why"),
     "best": ("run", "x_mm", "y_mm", "z_mm"),
 }  # fmt: skip
+#: Columns of :data:`COLUMNS` that are text; the others must hold numbers.
+TEXT_COLUMNS = frozenset(
+    {"seed", "shape", "paper_sph", "individual", "claim", "paper", "ours", "verdict", "why"}
+)
 
 
 def save_casestudy_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
@@ -67,10 +71,41 @@ def save_casestudy_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
 def load_casestudy_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     data = Path(out_dir) / "data"
     loaded: dict[str, Any] = {
-        name: read_csv(data / f"casestudy_{name}.csv", COLUMNS[name]) for name in (*TABLES, "best")
+        name: read_csv(
+            data / f"casestudy_{name}.csv",
+            COLUMNS[name],
+            numbers=tuple(c for c in COLUMNS[name] if c not in TEXT_COLUMNS),
+        )
+        for name in (*TABLES, "best")
     }
     loaded["provenance"] = read_json(data / "casestudy_provenance.json")
+    _check_history(loaded, data / "casestudy_history.csv")
     return loaded
+
+
+def _check_history(loaded: dict[str, Any], path: Path) -> None:
+    """Refuse a history that lacks a run's generations: Fig. 8 would draw the gap as a line.
+
+    Every run of the runs table has one row per generation, 1 to the configured number
+    (the provenance's ``config.generations``; the run's last row where it is not recorded).
+    """
+    history, runs = loaded["history"], loaded["runs"]
+    configured = (loaded["provenance"].get("config") or {}).get("generations")
+    for run in runs["run"]:
+        generations = history.loc[history["run"] == run, "generation"].to_numpy()
+        last = int(configured) if configured is not None else int(generations.max(initial=0))
+        expected = np.arange(1, last + 1)
+        if generations.shape != expected.shape or not np.array_equal(generations, expected):
+            missing = np.setdiff1d(expected, generations)
+            what = f"lacks generation(s) {_listed(missing)}" if missing.size else "has rows out of order"
+            raise ReportDataError(
+                f"{path}: run {run} {what} of 1-{last} (the file is damaged); regenerate the report data"
+            )
+
+
+def _listed(values: np.ndarray, at_most: int = 5) -> str:
+    shown = ", ".join(str(int(v)) for v in values[:at_most])
+    return shown + (f" and {values.size - at_most} more" if values.size > at_most else "")
 
 
 def _surface(points: np.ndarray, duplicates: str) -> Any:

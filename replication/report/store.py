@@ -19,6 +19,7 @@ from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from replication.errors import ReportDataError
@@ -49,13 +50,19 @@ def write_csv(frame: pd.DataFrame, path: str | os.PathLike[str]) -> int:
 
 
 def read_csv(
-    path: str | os.PathLike[str], columns: tuple[str, ...] = (), *, text: tuple[str, ...] = ()
+    path: str | os.PathLike[str],
+    columns: tuple[str, ...] = (),
+    *,
+    text: tuple[str, ...] = (),
+    numbers: tuple[str, ...] = (),
 ) -> pd.DataFrame:
     """Read report data; a missing, malformed or incomplete file is a :class:`ReportDataError`.
 
     ``columns`` are required: a file without one of them is refused, naming them. Columns
     named in ``text`` are read as strings, empty fields as ``""`` (a commit hash such as
-    ``1234e567`` is not a number).
+    ``1234e567`` is not a number). Columns named in ``numbers`` must hold numbers (an empty
+    field is a missing value): a field that is not one is refused, naming its line and
+    column; pandas alone would read the whole column as text, and a figure would draw it.
     """
     path = Path(path)
     if not path.is_file():
@@ -83,6 +90,15 @@ def read_csv(
             f"{path}: missing column(s) {', '.join(missing)} (the file is damaged or from another version); "
             "regenerate the report data"
         )
+    for column in numbers:
+        if column in frame.columns and not pd.api.types.is_numeric_dtype(frame[column]):
+            values = frame[column]
+            bad = values.notna() & pd.to_numeric(values, errors="coerce").isna()
+            row = int(np.flatnonzero(bad.to_numpy())[0]) if bad.any() else 0
+            raise ReportDataError(
+                f"{path}: line {row + 2}, column {column}: {values.iloc[row]!r} is not a number "
+                "(the file is damaged or from another version); regenerate the report data"
+            )
     return frame
 
 

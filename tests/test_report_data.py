@@ -1,0 +1,87 @@
+"""Damaged report data is refused in one line that names the file, line and column.
+
+``replication report`` used to draw Fig. 8 from a history that had lost rows (a line across
+the gap) or whose numbers had a damaged digit (pandas read the column as text, and the
+figure drew the text as categories), without a word.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from replication.errors import ReportDataError
+from replication.report.casestudy import load_casestudy_data
+from replication.report.store import read_csv, write_csv
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def casestudy_data(tmp_path):
+    """A copy of the committed case-study data."""
+    data = tmp_path / "data"
+    data.mkdir()
+    for path in (ROOT / "reports" / "data").glob("casestudy_*"):
+        shutil.copy(path, data / path.name)
+    return data
+
+
+def _edit(path, change):
+    path.write_text(change(path.read_text()))
+
+
+def test_the_committed_case_study_data_loads(casestudy_data):
+    loaded = load_casestudy_data(casestudy_data.parent)
+    assert len(loaded["history"]) == loaded["provenance"]["config"]["generations"] * len(loaded["runs"])
+
+
+def test_a_damaged_number_names_its_line_and_column(casestudy_data):
+    path = casestudy_data / "casestudy_history.csv"
+    lines = path.read_text().splitlines(keepends=True)
+    fields = lines[2].split(",")
+    fields[2] = fields[2][:3] + "x" + fields[2][4:]  # column "best" of the second generation
+    lines[2] = ",".join(fields)
+    path.write_text("".join(lines))
+    with pytest.raises(ReportDataError) as caught:
+        load_casestudy_data(casestudy_data.parent)
+    message = str(caught.value)
+    assert "\n" not in message and str(path) in message
+    assert "line 3, column best" in message and "is not a number" in message
+
+
+@pytest.mark.parametrize(("drop", "said"), [((3, 4), "lacks generation(s) 3, 4 of 1-50"),
+                                            ((50,), "lacks generation(s) 50 of 1-50")])  # fmt: skip
+def test_a_history_that_lost_rows_is_refused(casestudy_data, drop, said):
+    path = casestudy_data / "casestudy_history.csv"
+    history = pd.read_csv(path)
+    kept = history[~((history["run"] == 1) & history["generation"].isin(drop))]
+    write_csv(kept, path)
+    with pytest.raises(ReportDataError, match=re.escape(f"casestudy_history.csv: run 1 {said}")):
+        load_casestudy_data(casestudy_data.parent)
+
+
+def test_a_history_whose_rows_are_out_of_order_is_refused(casestudy_data):
+    path = casestudy_data / "casestudy_history.csv"
+    history = pd.read_csv(path)
+    order = np.arange(len(history))
+    order[[5, 6]] = order[[6, 5]]
+    write_csv(history.iloc[order], path)
+    with pytest.raises(ReportDataError, match="run 0 has rows out of order"):
+        load_casestudy_data(casestudy_data.parent)
+
+
+def test_numbers_may_be_missing_but_not_text(tmp_path):
+    path = tmp_path / "t.csv"
+    path.write_text("a,b,c\n1,,x\n2,3.5,y\n")
+    frame = read_csv(path, ("a", "b"), numbers=("a", "b"))
+    assert np.isnan(frame["b"][0]) and frame["b"][1] == 3.5
+    path.write_text("a,b,c\n1,2,x\n2,3.5e,y\n")
+    with pytest.raises(ReportDataError, match=r"line 3, column b: '3\.5e' is not a number"):
+        read_csv(path, numbers=("b",))
+    assert list(read_csv(path, numbers=("c_absent",)).columns) == ["a", "b", "c"]  # checked where present
