@@ -169,6 +169,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     from replication.casestudy.rundir import checkpoints, read_config
     from replication.errors import InputError, UsageError
     from replication.io.paths import check_report_dir, check_writable_dir, lookup
+    from replication.report.pages import check_pages
 
     check_executor_options(args.executor, args.workers, args.scheduler)
     rescore = rescore_config(args, _requested_config(args))
@@ -211,7 +212,9 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
             "--output-dir)"
         )
     out = Path(args.output_dir) if args.output_dir else default_out
-    check_report_dir(out, "--output-dir" if args.output_dir else "the reports directory")
+    what = "--output-dir" if args.output_dir else "the reports directory"
+    check_report_dir(out, what)
+    check_pages(out, what, ("casestudy.md", "index.md"))
     from replication.experiments.casestudy import quick_ga_config
 
     hint = ["replication", "casestudy", "--run-dir", str(run_dir), "--resume"]

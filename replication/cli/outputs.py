@@ -38,12 +38,19 @@ QUICK_DIR = "reports-quick"
 TABLE1_SUBDIRS = (*REPORT_SUBDIRS, "data/table1_meshes")
 
 
-def planned_output_dir(args: argparse.Namespace, subdirs: tuple[str, ...] = REPORT_SUBDIRS) -> Path:
+def planned_output_dir(
+    args: argparse.Namespace, pages: tuple[str, ...], subdirs: tuple[str, ...] = REPORT_SUBDIRS
+) -> Path:
     """The reports directory of ``table1``/``reproduce``/``sph``/``validate-jet``, checked (not
-    created), with the ``subdirs`` the command writes into it."""
+    created), with the ``subdirs`` the command writes into and the ``pages`` it writes (each
+    absent or a page of ours, :func:`replication.report.pages.check_pages`)."""
+    from replication.report.pages import check_pages
+
     explicit = getattr(args, "output_dir", None)
     out = Path(explicit or (QUICK_DIR if getattr(args, "quick", False) else DEFAULT_DIR))
-    check_report_dir(out, "--output-dir" if explicit else "the reports directory", subdirs)
+    what = "--output-dir" if explicit else "the reports directory"
+    check_report_dir(out, what, subdirs)
+    check_pages(out, what, pages)
     return out
 
 

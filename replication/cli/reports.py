@@ -67,7 +67,7 @@ def _said(written: list[Path], out: Path) -> None:
 
 
 def _cmd_table1(args: argparse.Namespace) -> int:
-    out = planned_output_dir(args, TABLE1_SUBDIRS)
+    out = planned_output_dir(args, ("table1.md", "index.md"), TABLE1_SUBDIRS)
     start = time.perf_counter()
     path = _run_table1(out, args.quick, args.invocation, args.workers)
     written = finish_reports(out)
@@ -154,6 +154,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     from replication.io.paths import check_report_dir, lookup, same_file
     from replication.report.casestudy import render_casestudy
     from replication.report.index import update_readme
+    from replication.report.pages import check_pages
     from replication.report.table1 import render_table1
 
     out = Path(args.output_dir or DEFAULT_DIR)
@@ -178,8 +179,10 @@ def _cmd_report(args: argparse.Namespace) -> int:
     # data/ is only read here (it may be on a read-only share), except where --performance merges
     # asv's results into its archive there; figures/ is written
     written_dirs = ("figures", "data") if results is not None else ("figures",)
-    check_report_dir(out, "--output-dir" if args.output_dir else "the reports directory", written_dirs)
+    what = "--output-dir" if args.output_dir else "the reports directory"
+    check_report_dir(out, what, written_dirs)
     readme = _check_readme(args.readme, out) if args.readme else None
+    check_pages(out, what, _pages_drawn(out, performance=args.performance))
     # what the files were, to say which stayed as they were
     before = _contents([*(out / name for name in RENDERED), *filter(None, (readme, checkout_readme(out)))])
     written = []
@@ -218,6 +221,14 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _pages_drawn(out: Path, *, performance: bool) -> list[str]:
+    """The pages ``replication report`` draws in ``out``: those whose data are there, the index,
+    and performance.md with ``--performance``."""
+    drawn = [f"{name}.md" for name in ("table1", "sph", "jet_validation", "casestudy")
+             if (out / "data" / f"{name}_provenance.json").is_file()]  # fmt: skip
+    return [*drawn, "index.md", *(["performance.md"] if performance else [])]
+
+
 def _contents(paths: list[Path]) -> dict[Path, bytes]:
     """The bytes of those of ``paths`` that are files, by resolved path."""
     found = {}
@@ -241,7 +252,7 @@ STAGES = (
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    out = planned_output_dir(args, TABLE1_SUBDIRS)
+    out = planned_output_dir(args, tuple(p for p in RENDERED if p != "performance.md"), TABLE1_SUBDIRS)
     ga_args = argparse.Namespace(
         quick=args.quick, runs=None, generations=None, population=None, seed=None, run_dir=None,
         resume=False, executor="auto", workers=args.workers, scheduler=None, invocation=args.invocation,

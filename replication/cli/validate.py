@@ -30,7 +30,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
     _check_options(args)
     _check_custom_run(args)
-    out = planned_output_dir(args)
+    out = planned_output_dir(args, ("jet_validation.md", "index.md"))
     start = time.perf_counter()
     results, path = run_validation_report(args, out)
     table = results.surfaces

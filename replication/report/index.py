@@ -12,6 +12,7 @@ from replication.experiments.paper import PAPER_TABLE1
 from replication.experiments.table1_claims import STORAGE_HEADLINE
 from replication.io.atomic import atomic_write_text
 from replication.report.casestudy_validation import validation_headline
+from replication.report.markdown import write_report
 from replication.report.store import read_csv
 
 __all__ = ["REPORTS", "fill_block", "has_block", "headline", "render_index", "update_readme"]
@@ -238,6 +239,4 @@ def render_index(out_dir: str | os.PathLike[str]) -> Path:
         for _, r in frame.iterrows():
             if r["verdict"] != "cannot be compared":
                 lines.append(f"- {r['claim']}: **{r['verdict']}**")
-    path = out / "index.md"
-    atomic_write_text(path, "\n".join(lines) + "\n")
-    return path
+    return write_report(out / "index.md", "\n".join(lines) + "\n")

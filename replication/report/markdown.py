@@ -97,15 +97,15 @@ def write_report(path: Path, text: str) -> Path:
     Re-rendering the committed reports from their data at a later commit draws the same page;
     replacing the file would then change only the commit that rendered it and leave a checkout
     with modified reports after a command that changed nothing. The page kept names an earlier
-    commit that drew exactly this text, which stays true.
+    commit that drew exactly this text, which stays true. The page is written with its marker
+    and never over a file that is not a page of ours (:mod:`replication.report.pages`).
     """
-    from replication.io.atomic import atomic_write_text
+    from replication.report.pages import marked, write_page
 
     try:
         old = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError):
         old = None
-    if old is not None and _RENDERED_BY.sub("", old) == _RENDERED_BY.sub("", text):
+    if old is not None and _RENDERED_BY.sub("", old) == _RENDERED_BY.sub("", marked(text)):
         return path
-    atomic_write_text(path, text)
-    return path
+    return write_page(path, text)

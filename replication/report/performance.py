@@ -28,12 +28,11 @@ from pathlib import Path
 import pandas as pd
 
 from replication.errors import CloudFileError
-from replication.io.atomic import atomic_write_text
 from replication.report.asv_archive import ARCHIVE, merge_results, read_archive, write_archive
 from replication.report.asv_cells import format_cell
 from replication.report.asv_compare import P_THRESHOLD, VERDICTS, verdict
 from replication.report.asv_results import load_asv_results, single_sample
-from replication.report.markdown import table
+from replication.report.markdown import table, write_report
 from replication.report.speed_goals import RULE, Goal, goal_rows, speed_lines
 
 __all__ = ["FACTOR", "format_cell", "load_asv_results", "render_performance", "speed_table"]
@@ -300,9 +299,7 @@ def render_performance(
             lines += _history(by_machine, [c for c in order if c in quick][-commits:])
     lines += _method(factor)
     out.mkdir(parents=True, exist_ok=True)
-    path = out / "performance.md"
-    atomic_write_text(path, "\n".join(lines).rstrip("\n") + "\n")
-    return path
+    return write_report(out / "performance.md", "\n".join(lines).rstrip("\n") + "\n")
 
 
 def speed_table(out_dir: str | os.PathLike[str]) -> list[str]:
