@@ -18,6 +18,13 @@ ROOT = Path(__file__).resolve().parents[1]
 NOTES = "# My notes\n\nNothing here was drawn by a program.\n"
 
 
+def test_the_committed_pages_are_ours_and_carry_the_marker():
+    for name, title in PAGE_TITLES.items():
+        text = (ROOT / "reports" / name).read_text(encoding="utf-8")
+        assert text.split("\n", 1)[0] == title, name
+        assert text.endswith("\n" + MARKER + "\n") and is_ours(ROOT / "reports" / name), name
+
+
 @pytest.mark.parametrize(
     ("name", "content", "ours"),
     [
