@@ -38,20 +38,21 @@ def test_a_page_that_differs_only_in_its_render_commit_is_kept(tmp_path, monkeyp
     """`replication report` in a clone re-drew every page with only its "rendered by" commit
     changed, so a command that changed nothing left the committed reports modified."""
     from replication.report import markdown
+    from replication.report.pages import marked
 
     page = tmp_path / "table1.md"
     old = "# T\n\n- Code: git commit `aaa` (computed the data); rendered by commit `aaa`\n- x: 1\n"
-    page.write_text(old)
+    page.write_text(marked(old))  # a page as written, with its marker line
     stamp = page.stat().st_mtime_ns
     same = old.replace("rendered by commit `aaa`", "rendered by commit `bbb (with uncommitted changes)`")
     assert markdown.write_report(page, same) == page
-    assert page.read_text() == old and page.stat().st_mtime_ns == stamp
+    assert page.read_text() == marked(old) and page.stat().st_mtime_ns == stamp
     changed = same.replace("x: 1", "x: 2")  # any other change is written, with its render commit
     markdown.write_report(page, changed)
-    assert page.read_text() == changed
+    assert page.read_text() == marked(changed)
     fresh = tmp_path / "new.md"  # and a page not yet there is written
     markdown.write_report(fresh, old)
-    assert fresh.read_text() == old
+    assert fresh.read_text() == marked(old)
 
 
 def test_the_provenance_section_names_its_record_file():
