@@ -718,6 +718,50 @@ def test_standard_output_on_a_full_device(tmp_path, buffered):
     assert (tmp_path / "s.vtk").read_text().startswith("# vtk DataFile")
 
 
+@pytest.mark.skipif(not __import__("os").path.exists("/dev/full"), reason="needs /dev/full")
+@pytest.mark.parametrize("args", [["--help"], ["adt", "--help"], ["--version"]])
+def test_help_and_version_on_a_full_device_say_so(args):
+    """``--help > /dev/full`` exited 0 with nothing written; ``--version`` printed a traceback."""
+    import subprocess
+    import sys
+
+    with open("/dev/full", "w") as full:
+        command = [sys.executable, "-m", "replication", *args]
+        done = subprocess.run(command, stdout=full, stderr=subprocess.PIPE, text=True)
+    name = "replication adt" if args[0] == "adt" else "replication"
+    assert done.returncode == 1
+    assert done.stderr == f"{name}: error: cannot write the standard output: No space left on device\n"
+
+
+@pytest.mark.parametrize("args", [["--help"], ["table1", "--help"], ["--version"]])
+def test_help_and_version_into_a_closed_pipe_end_quietly(args):
+    """``replication --version | true``: was a BrokenPipeError traceback."""
+    import subprocess
+    import sys
+
+    reader = subprocess.Popen([sys.executable, "-c", "pass"], stdin=subprocess.PIPE)
+    reader.wait()  # gone before anything is written: the pipe has no reader
+    command = [sys.executable, "-m", "replication", *args]
+    done = subprocess.run(command, stdout=reader.stdin, stderr=subprocess.PIPE, text=True)
+    reader.stdin.close()
+    assert done.returncode == 141 and done.stderr == "", done.stderr
+
+
+def test_an_error_message_that_stderr_cannot_take_keeps_its_status(capsys, monkeypatch):
+    import errno
+    import io
+    import sys
+
+    class Full(io.StringIO):
+        def write(self, text):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(sys, "stderr", Full())
+    with pytest.raises(SystemExit) as exc:
+        main(["adt", "--bogus"])
+    assert exc.value.code == 2  # argparse's usage error, said or not
+
+
 def test_report_says_which_tables_lack_their_provenance(capsys, tmp_path):
     # a save killed while it published its files leaves them without provenance: say so, do not skip silently
     (tmp_path / "data").mkdir()

@@ -24,7 +24,7 @@ import re
 import shlex
 import sys
 from collections.abc import Callable, Iterable, Sequence
-from typing import NoReturn
+from typing import IO, NoReturn
 
 from replication.errors import ReplicationError, UsageError, escaped, shortened
 from replication.sigterm import EXIT_STATUS as SIGTERM_EXIT
@@ -227,6 +227,27 @@ class _GuardedStdout:
         return self._guarded(self._stream.flush)
 
 
+def _flush_answer(command: str | None) -> None:
+    """Flush what --help or --version printed; a standard output that cannot take it is one line
+    and exit status 1 (``SystemExit``), not a success with nothing written."""
+    if sys.stdout is None:
+        return
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        _quiet_stdout()
+    except OSError as exc:
+        raise SystemExit(_answer_unwritten(command, exc)) from None
+
+
+def _answer_unwritten(command: str | None, exc: OSError) -> int:
+    name = f"replication{f' {command}' if command in COMMANDS else ''}"
+    text = f"cannot write the standard output: {exc.strerror or ' '.join(str(exc).split())}"
+    print(f"{name}: error: {escaped(text)}", file=sys.stderr)
+    _quiet_stdout()
+    return 1
+
+
 def _quiet_stdout() -> None:
     """Point the standard output at the null device: no second error when it is flushed at exit."""
     with contextlib.suppress(OSError, ValueError):
@@ -239,6 +260,20 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> NoReturn:
         self.exit(2, f"{self.prog}: error: {escaped(message)} (see '{self.prog} --help')\n")
+
+    def _print_message(self, message: str, file: IO[str] | None = None) -> None:
+        """argparse's, without swallowing an ``OSError``: ``--help > /dev/full`` exited 0 with
+        nothing written (:func:`main` makes it one line and exit status 1)."""
+        if not message:
+            return
+        stream = file or sys.stderr
+        try:
+            stream.write(message)
+        except AttributeError:  # a closed stream (None): nothing to say
+            pass
+        except OSError:
+            if stream is not sys.stderr:  # an error message that stderr cannot take: nowhere to say so
+                raise
 
 
 def _unrecognized(parser: argparse.ArgumentParser, command: str, extra: list[str]) -> NoReturn:
@@ -262,6 +297,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:  # was a traceback: main's handlers below did not cover it yet
         print(f"replication{f' {command}' if command in COMMANDS else ''}: interrupted", file=sys.stderr)
         return 130
+    except SystemExit as exc:  # --help, --version (or argparse's own error, already on stderr)
+        if exc.code in (0, None):
+            _flush_answer(command)
+        raise
+    except BrokenPipeError:  # ``replication --version | true``: the reader went away, quietly
+        _quiet_stdout()
+        return 141
+    except OSError as exc:  # printing --help or --version: a full disk (> /dev/full)
+        return _answer_unwritten(command, exc)
     args.invocation = shlex.join(["replication", *argv])
     func: Callable[[argparse.Namespace], int] = args.func
     name = f"replication {args.command}"
