@@ -76,12 +76,55 @@ def test_a_history_whose_rows_are_out_of_order_is_refused(casestudy_data):
         load_casestudy_data(casestudy_data.parent)
 
 
-def test_numbers_may_be_missing_but_not_text(tmp_path):
+def test_numbers_may_be_missing_or_true_false_but_not_text(tmp_path):
     path = tmp_path / "t.csv"
-    path.write_text("a,b,c\n1,,x\n2,3.5,y\n")
-    frame = read_csv(path, ("a", "b"), numbers=("a", "b"))
-    assert np.isnan(frame["b"][0]) and frame["b"][1] == 3.5
+    path.write_text("a,b,c,d\n1,,x,True\n2,3.5,y,\n")
+    frame = read_csv(path, ("a", "b"), strings={"c"})
+    assert np.isnan(frame["b"][0]) and frame["b"][1] == 3.5 and frame["d"][0]
     path.write_text("a,b,c\n1,2,x\n2,3.5e,y\n")
     with pytest.raises(ReportDataError, match=r"line 3, column b: '3\.5e' is not a number"):
-        read_csv(path, numbers=("b",))
-    assert list(read_csv(path, numbers=("c_absent",)).columns) == ["a", "b", "c"]  # checked where present
+        read_csv(path, strings={"c"})
+    with pytest.raises(ReportDataError, match=r"line 2, column c: 'x' is not a number"):
+        read_csv(path, strings={"b"})
+    assert list(read_csv(path).columns) == ["a", "b", "c"]  # without strings: not checked
+    assert read_csv(path, strings={"b", "c"})["b"][1] == "3.5e"
+
+
+def _loaders():
+    from replication.report.jet_validation import load_jet_validation_data
+    from replication.report.sph import load_sph_data
+    from replication.report.table1 import load_table1_data
+
+    return {"table1": load_table1_data, "sph": load_sph_data, "jet_validation": load_jet_validation_data,
+            "casestudy": load_casestudy_data}  # fmt: skip
+
+
+@pytest.mark.parametrize("report", ["table1", "sph", "jet_validation", "casestudy"])
+def test_every_committed_data_set_passes_the_checks(report):
+    loaded = _loaders()[report](ROOT / "reports")
+    assert loaded["provenance"]
+
+
+@pytest.mark.parametrize(
+    ("report", "table", "column"),
+    [("table1", "montecarlo", "median"), ("table1", "stats", "n"), ("sph", "runs", "radius_mm"),
+     ("jet_validation", "surfaces", "vertices"), ("jet_validation", "surrogate_params", "value")],
+)  # fmt: skip
+def test_a_damaged_number_in_any_report_names_its_file_line_and_column(tmp_path, report, table, column):
+    """table1 and sph failed naming neither file nor column; the jet validation drew its page."""
+    data = tmp_path / "data"
+    ignored = shutil.ignore_patterns("*meshes*", "performance*")
+    shutil.copytree(ROOT / "reports" / "data", data, ignore=ignored)
+    path = data / f"{report}_{table}.csv"
+    frame = pd.read_csv(path)
+    assert pd.api.types.is_numeric_dtype(frame[column]) and len(frame) > 1
+    lines = path.read_text().splitlines(keepends=True)
+    k = list(frame.columns).index(column)
+    fields = lines[2].split(",")  # (no quoted commas before these columns)
+    fields[k] = fields[k].strip() + "x" + ("\n" if k == len(fields) - 1 else "")
+    lines[2] = ",".join(fields)
+    path.write_text("".join(lines))
+    with pytest.raises(ReportDataError) as caught:
+        _loaders()[report](tmp_path)
+    message = str(caught.value)
+    assert str(path) in message and f"line 3, column {column}:" in message and "is not a number" in message

@@ -42,7 +42,7 @@ COLUMNS: dict[str, tuple[str, ...]] = {
     "claims": ("claim", "paper", "ours", "verdict", "why"),
     "best": ("run", "x_mm", "y_mm", "z_mm"),
 }  # fmt: skip
-#: Columns of :data:`COLUMNS` that are text; the others must hold numbers.
+#: The columns of the case study's tables that hold text; the others must hold numbers.
 TEXT_COLUMNS = frozenset(
     {"seed", "shape", "paper_sph", "individual", "claim", "paper", "ours", "verdict", "why"}
 )
@@ -71,11 +71,7 @@ def save_casestudy_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
 def load_casestudy_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     data = Path(out_dir) / "data"
     loaded: dict[str, Any] = {
-        name: read_csv(
-            data / f"casestudy_{name}.csv",
-            COLUMNS[name],
-            numbers=tuple(c for c in COLUMNS[name] if c not in TEXT_COLUMNS),
-        )
+        name: read_csv(data / f"casestudy_{name}.csv", COLUMNS[name], strings=TEXT_COLUMNS)
         for name in (*TABLES, "best")
     }
     loaded["provenance"] = read_json(data / "casestudy_provenance.json")

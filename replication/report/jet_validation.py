@@ -47,6 +47,11 @@ TABLES = (
 #: Tables of the surrogate (present once it is calibrated).
 OPTIONAL = ("surrogate_surfaces", "surrogate_params", "surrogate_agreement", "departures")
 PREFIX = "jet_validation"
+#: The columns of the tables that hold text; the others must hold numbers (see :func:`.store.read_csv`).
+TEXT_COLUMNS = frozenset({
+    "scope", "feature", "what", "surface", "family", "status_shifted", "sph_status", "sph_key", "stratum",
+    "half", "parameter", "meaning",
+})  # fmt: skip
 RESOLUTION_HEADER = ["surface", "family", "model", "last change", "rank (last two radii)", "residual bound"]
 CONVERGENCE_HEADER = [
     "SPH at", "n", "Spearman vs finest [95 % CI]", "Kendall vs finest [95 % CI]", "largest change",
@@ -87,10 +92,12 @@ def saved_study(out_dir: str | os.PathLike[str]) -> bool:
 
 def load_jet_validation_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     data = Path(out_dir) / "data"
-    loaded: dict[str, Any] = {name: read_csv(data / f"{PREFIX}_{name}.csv") for name in TABLES}
+    loaded: dict[str, Any] = {
+        name: read_csv(data / f"{PREFIX}_{name}.csv", strings=TEXT_COLUMNS) for name in TABLES
+    }
     for name in OPTIONAL:
         path = data / f"{PREFIX}_{name}.csv"
-        loaded[name] = read_csv(path) if path.is_file() else None
+        loaded[name] = read_csv(path, strings=TEXT_COLUMNS) if path.is_file() else None
     loaded["provenance"] = read_json(data / f"{PREFIX}_provenance.json")
     return loaded
 
@@ -271,4 +278,4 @@ def _origin(prov: dict[str, Any], surfaces: pd.DataFrame) -> str:
 def sph_table(out_dir: str | os.PathLike[str]) -> pd.DataFrame | None:
     """The per-surface table of a saved study, or None when there is none."""
     path = Path(out_dir) / "data" / f"{PREFIX}_surfaces.csv"
-    return read_csv(path) if path.is_file() else None
+    return read_csv(path, strings=TEXT_COLUMNS) if path.is_file() else None

@@ -19,6 +19,8 @@ from replication.report.store import data_set, read_csv, read_json, write_csv, w
 __all__ = ["TABLES", "load_sph_data", "render_sph", "save_sph_data"]
 
 TABLES = ("runs", "series", "shapes", "hypotheses")
+#: The columns of the tables that hold text; the others must hold numbers (see :func:`.store.read_csv`).
+TEXT_COLUMNS = frozenset({"hypothesis", "why", "verdict", "shape", "method", "status", "key"})
 
 
 def save_sph_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
@@ -33,7 +35,9 @@ def save_sph_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
 
 def load_sph_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     data = Path(out_dir) / "data"
-    loaded: dict[str, Any] = {name: read_csv(data / f"sph_{name}.csv") for name in TABLES}
+    loaded: dict[str, Any] = {
+        name: read_csv(data / f"sph_{name}.csv", strings=TEXT_COLUMNS) for name in TABLES
+    }
     loaded["provenance"] = read_json(data / "sph_provenance.json")
     return loaded
 

@@ -15,7 +15,7 @@ import json
 import os
 import shutil
 import tempfile
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Collection, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -54,15 +54,17 @@ def read_csv(
     columns: tuple[str, ...] = (),
     *,
     text: tuple[str, ...] = (),
-    numbers: tuple[str, ...] = (),
+    strings: Collection[str] | None = None,
 ) -> pd.DataFrame:
     """Read report data; a missing, malformed or incomplete file is a :class:`ReportDataError`.
 
     ``columns`` are required: a file without one of them is refused, naming them. Columns
     named in ``text`` are read as strings, empty fields as ``""`` (a commit hash such as
-    ``1234e567`` is not a number). Columns named in ``numbers`` must hold numbers (an empty
-    field is a missing value): a field that is not one is refused, naming its line and
-    column; pandas alone would read the whole column as text, and a figure would draw it.
+    ``1234e567`` is not a number). When ``strings`` is given, it names the columns that hold
+    text: every other column must hold numbers (or true/false; an empty field is a missing
+    value), and a field that is not one is refused, naming its line and column. pandas alone
+    read such a column as text, and a report drew it (a figure as categories) or failed
+    without naming the file.
     """
     path = Path(path)
     if not path.is_file():
@@ -90,16 +92,24 @@ def read_csv(
             f"{path}: missing column(s) {', '.join(missing)} (the file is damaged or from another version); "
             "regenerate the report data"
         )
-    for column in numbers:
-        if column in frame.columns and not pd.api.types.is_numeric_dtype(frame[column]):
-            values = frame[column]
-            bad = values.notna() & pd.to_numeric(values, errors="coerce").isna()
-            row = int(np.flatnonzero(bad.to_numpy())[0]) if bad.any() else 0
+    if strings is not None:
+        _check_numbers(frame, path, exempt={*strings, *text})
+    return frame
+
+
+def _check_numbers(frame: pd.DataFrame, path: Path, exempt: set[str]) -> None:
+    """Refuse the first field of a column outside ``exempt`` that is not a number (see :func:`read_csv`)."""
+    for column in frame.columns:
+        values = frame[column]
+        if column in exempt or pd.api.types.is_numeric_dtype(values):
+            continue
+        bad = values.notna() & ~values.isin([True, False]) & pd.to_numeric(values, errors="coerce").isna()
+        if bad.any():
+            row = int(np.flatnonzero(bad.to_numpy())[0])
             raise ReportDataError(
                 f"{path}: line {row + 2}, column {column}: {values.iloc[row]!r} is not a number "
                 "(the file is damaged or from another version); regenerate the report data"
             )
-    return frame
 
 
 def _check_rows(text: str) -> None:

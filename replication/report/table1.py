@@ -42,6 +42,12 @@ TABLES = (
     "storage",
     "claims",
 )
+#: The columns of the tables that hold text; the others must hold numbers (see :func:`.store.read_csv`).
+TEXT_COLUMNS = frozenset({
+    "claim", "paper", "unit", "verdict", "why", "seed", "depth_axis", "net", "net_rule", "method",
+    "quantity", "a_recommended", "b_recommended", "pairing", "recommended", "format", "coordinates",
+    "family", "task",
+})  # fmt: skip
 
 
 class _Mesh:
@@ -73,7 +79,9 @@ def save_table1_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
 def load_table1_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     """The saved tables (DataFrames) and provenance of a Table 1 run."""
     data = Path(out_dir) / "data"
-    loaded: dict[str, Any] = {name: read_csv(data / f"table1_{name}.csv") for name in TABLES}
+    loaded: dict[str, Any] = {
+        name: read_csv(data / f"table1_{name}.csv", strings=TEXT_COLUMNS) for name in TABLES
+    }
     loaded["provenance"] = read_json(data / "table1_provenance.json")
     return loaded
 
