@@ -101,14 +101,20 @@ def test_report_refuses_a_foreign_page_it_would_redraw_and_draws_nothing(tmp_pat
     import shutil
 
     copy = tmp_path / "copy"
-    shutil.copytree(ROOT / "reports", copy)
-    (copy / "casestudy.md").write_text(NOTES)
+    (copy / "data").mkdir(parents=True)
+    for path in (ROOT / "reports" / "data").glob("sph_*"):  # one report's data: the quickest to draw
+        shutil.copy(path, copy / "data" / path.name)
+    (copy / "sph.md").write_text(NOTES)
     before = {p: p.read_bytes() for p in copy.rglob("*") if p.is_file()}
     assert main(["report", "--output-dir", str(copy)]) == 1
     err = capsys.readouterr().err
-    assert "casestudy.md is not a report page of this package" in err and err.count("\n") == 1
-    assert {p: p.read_bytes() for p in copy.rglob("*") if p.is_file()} == before
-    (copy / "casestudy.md").unlink()  # a page absent is drawn
-    (copy / "performance.md").write_text(NOTES)  # not drawn without --performance: no matter
+    assert "sph.md is not a report page of this package" in err and err.count("\n") == 1
+    assert {p: p.read_bytes() for p in copy.rglob("*") if p.is_file()} == before  # nothing drawn
+    (copy / "sph.md").unlink()  # a page absent is drawn
+    for name in ("casestudy.md", "performance.md"):  # pages it does not draw here: no matter
+        (copy / name).write_text(NOTES)
     assert main(["report", "--output-dir", str(copy)]) == 0, capsys.readouterr().err
-    assert is_ours(copy / "casestudy.md") and (copy / "performance.md").read_text() == NOTES
+    assert is_ours(copy / "sph.md") and is_ours(copy / "index.md")
+    assert (copy / "casestudy.md").read_text() == (copy / "performance.md").read_text() == NOTES
+    index = (copy / "index.md").read_text()
+    assert "](sph.md)" in index and "](casestudy.md)" not in index  # no link to somebody else's file

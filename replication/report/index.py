@@ -13,6 +13,7 @@ from replication.experiments.table1_claims import STORAGE_HEADLINE
 from replication.io.atomic import atomic_write_text
 from replication.report.casestudy_validation import validation_headline
 from replication.report.markdown import write_report
+from replication.report.pages import is_ours
 from replication.report.store import read_csv
 
 __all__ = ["REPORTS", "fill_block", "has_block", "headline", "render_index", "update_readme"]
@@ -227,7 +228,7 @@ def render_index(out_dir: str | os.PathLike[str]) -> Path:
         "",
     ]
     for name, title, what in REPORTS:
-        if (out / name).is_file():
+        if (out / name).is_file() and is_ours(out / name):  # not a file of somebody else's of that name
             lines.append(f"- [{title}]({name}): {what}")
         else:
             lines.append(f"- {title}: {what} - *not generated yet*")
