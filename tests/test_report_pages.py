@@ -118,3 +118,21 @@ def test_report_refuses_a_foreign_page_it_would_redraw_and_draws_nothing(tmp_pat
     assert (copy / "casestudy.md").read_text() == (copy / "performance.md").read_text() == NOTES
     index = (copy / "index.md").read_text()
     assert "](sph.md)" in index and "](casestudy.md)" not in index  # no link to somebody else's file
+
+
+def test_a_reports_directory_is_no_ga_run_directory(tmp_path, monkeypatch, capsys):
+    """``casestudy --run-dir reports`` added run files to the committed reports."""
+    import shutil
+
+    monkeypatch.chdir(tmp_path)
+    shutil.copytree(ROOT / "reports", tmp_path / "reports", ignore=shutil.ignore_patterns("data", "figures"))
+    before = sorted(p.name for p in (tmp_path / "reports").iterdir())
+    assert main(["casestudy", "--quick", "--run-dir", "reports"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--run-dir reports is a reports directory (it holds index.md)" in err, err
+    assert sorted(p.name for p in (tmp_path / "reports").iterdir()) == before
+    (tmp_path / "notes").mkdir()
+    (tmp_path / "notes" / "index.md").write_text(NOTES)  # somebody else's index.md: not a reports directory
+    from replication.report.pages import report_page_in
+
+    assert report_page_in(tmp_path / "notes") is None and report_page_in(tmp_path / "missing") is None

@@ -169,7 +169,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     from replication.casestudy.rundir import checkpoints, read_config
     from replication.errors import InputError, UsageError
     from replication.io.paths import check_report_dir, check_writable_dir, lookup
-    from replication.report.pages import check_pages
+    from replication.report.pages import check_pages, report_page_in
 
     check_executor_options(args.executor, args.workers, args.scheduler)
     rescore = rescore_config(args, _requested_config(args))
@@ -181,6 +181,12 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     else:
         config = _requested_config(args)
         run_dir = Path(args.run_dir) if args.run_dir else _new_run_dir()
+        page = report_page_in(run_dir)
+        if page is not None:
+            raise InputError(
+                f"--run-dir {run_dir} is a reports directory (it holds {page.name}): the GA's checkpoints "
+                "go into a directory of their own"
+            )
         if lookup(run_dir, InputError, "--run-dir").is_dir:
             found = checkpoints(run_dir)
             if found:

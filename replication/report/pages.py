@@ -22,7 +22,7 @@ from pathlib import Path
 
 from replication.errors import OutputError
 
-__all__ = ["MARKER", "PAGE_TITLES", "check_pages", "is_ours", "marked", "write_page"]
+__all__ = ["MARKER", "PAGE_TITLES", "check_pages", "is_ours", "marked", "report_page_in", "write_page"]
 
 #: The last line of every page this package writes (an HTML comment: markdown shows nothing).
 MARKER = "<!-- drawn by the replication package from data/: edits are lost when it is drawn again -->"
@@ -68,6 +68,19 @@ def is_ours(path: str | os.PathLike[str]) -> bool:
         return True
     title = PAGE_TITLES.get(path.name)
     return title is not None and text.split("\n", 1)[0] == title and "`replication" in text
+
+
+def report_page_in(directory: str | os.PathLike[str]) -> Path | None:
+    """A page of ours in ``directory`` (the first of :data:`PAGE_TITLES` found), or None.
+
+    A directory that holds one is a reports directory: a GA run's checkpoints do not belong
+    there (``casestudy --run-dir reports`` added run files to the committed reports).
+    """
+    for name in PAGE_TITLES:
+        path = Path(directory) / name
+        if path.is_file() and is_ours(path):
+            return path
+    return None
 
 
 def _refusal(path: Path, what: str) -> OutputError:
