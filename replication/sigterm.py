@@ -32,7 +32,14 @@ import threading
 from collections.abc import Iterator
 from types import FrameType
 
-__all__ = ["EXIT_STATUS", "Terminated", "handler_installed", "sigterm_interrupts", "terminating"]
+__all__ = [
+    "EXIT_STATUS",
+    "Terminated",
+    "handler_installed",
+    "sigterm_interrupts",
+    "terminated",
+    "terminating",
+]
 
 #: The exit status of a command ended by SIGTERM, as a shell reports a process it killed.
 EXIT_STATUS = 128 + signal.SIGTERM
@@ -45,7 +52,16 @@ class Terminated(KeyboardInterrupt):
 
 
 def terminating() -> bool:
-    """Whether SIGTERM arrived while :func:`sigterm_interrupts` was active (the current or last block)."""
+    """Whether SIGTERM arrived in the :func:`sigterm_interrupts` block running now (False outside one).
+
+    A raise of :class:`Terminated` can be lost (Python only reports an exception raised in
+    code such as a fork hook or a finalizer): long runs also look at this between their steps.
+    """
+    return _terminated and handler_installed()
+
+
+def terminated() -> bool:
+    """Whether SIGTERM arrived in the last :func:`sigterm_interrupts` block (the command's exit status)."""
     return _terminated
 
 
@@ -67,17 +83,17 @@ def sigterm_interrupts() -> Iterator[None]:
     """While the block runs, SIGTERM raises :class:`Terminated` (see the module notes).
 
     Only in the main thread and only over the system's default for SIGTERM: a program with
-    its own handler, or one that ignores SIGTERM, keeps it. :func:`terminating` is reset on
+    its own handler, or one that ignores SIGTERM, keeps it. :func:`terminated` is reset on
     entry and keeps its answer after the block, for the caller's exit status.
     """
     global _terminated
+    _terminated = False
     if (
         threading.current_thread() is not threading.main_thread()
         or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL
     ):
         yield
         return
-    _terminated = False
     signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         yield

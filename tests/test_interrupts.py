@@ -171,6 +171,63 @@ def test_sigterm_stops_a_run_as_ctrl_c_does_and_it_resumes_identically(interrupt
     assert _state(run_dir) == uninterrupted
 
 
+@pytest.mark.slow
+@pytest.mark.skipif(not _has_dask(), reason="dask is not installed")
+def test_sigterm_while_a_local_cluster_starts_ends_the_command(tmp_path):
+    """SIGTERM inside LocalCluster(...) left a worker that nobody closed, and the command waited
+    for it for good (the resource tracker's stop)."""
+    command = [sys.executable, "-c", AS_FROM_A_TERMINAL, "casestudy", *ARGS, "--executor", "dask",
+               "--workers", "1", "--run-dir", str(tmp_path / "run")]  # fmt: skip
+    pipes = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "text": True}
+    process = subprocess.Popen(command, cwd=tmp_path, start_new_session=True, **pipes)
+    try:
+        assert _wait_for(lambda: any("spawn_main" in line for line in _children(process.pid)), seconds=120)
+        process.send_signal(signal.SIGTERM)  # the command alone, while its cluster starts
+        _, err = process.communicate(timeout=60)
+        assert process.returncode == 143 and err.rstrip().endswith("terminated (SIGTERM)"), err
+        assert_no_process_left(process.pid)
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            process.communicate(timeout=30)
+
+
+def _children(pid):
+    """The command lines of the processes ``pid`` started."""
+    import psutil
+
+    lines = []
+    with contextlib.suppress(psutil.Error):
+        for child in psutil.Process(pid).children(recursive=True):
+            with contextlib.suppress(psutil.Error):
+                lines.append(" ".join(child.cmdline()))
+    return lines
+
+
+_TERMINATED_AT_THE_FORK = """
+import os, signal, sys, time
+from replication.sigterm import sigterm_interrupts
+from replication.casestudy.evaluate import executor
+
+try:
+    with sigterm_interrupts(), executor("process", workers=2) as pool:
+        pool.submit(time.sleep, 1)
+        os.kill(os.getpid(), signal.SIGTERM)  # while the workers start
+        time.sleep(30)
+except KeyboardInterrupt as exc:
+    print(type(exc).__name__)
+"""
+
+
+def test_sigterm_while_workers_start_is_taken_once_and_leaves_them_quiet():
+    """A forked worker kept the parent's SIGTERM handler: it printed an 'Exception in initializer'
+    traceback when its pool was abandoned."""
+    done = subprocess.run([sys.executable, "-c", _TERMINATED_AT_THE_FORK], capture_output=True, text=True,
+                          timeout=60, start_new_session=True)  # fmt: skip
+    assert done.stdout == "Terminated\n" and "Traceback" not in done.stderr, done.stderr
+
+
 _SIMULATING = """
 import os, signal, sys, time
 signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal

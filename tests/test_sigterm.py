@@ -13,7 +13,14 @@ import threading
 import pytest
 
 from replication.io.atomic import interrupt_deferred
-from replication.sigterm import EXIT_STATUS, Terminated, handler_installed, sigterm_interrupts, terminating
+from replication.sigterm import (
+    EXIT_STATUS,
+    Terminated,
+    handler_installed,
+    sigterm_interrupts,
+    terminated,
+    terminating,
+)
 
 
 @pytest.fixture(autouse=True)
@@ -34,7 +41,7 @@ def test_sigterm_raises_terminated_which_is_an_interrupt():
     with pytest.raises(KeyboardInterrupt) as caught, sigterm_interrupts():
         assert handler_installed() and not terminating()
         _sigterm()
-    assert isinstance(caught.value, Terminated) and terminating()
+    assert isinstance(caught.value, Terminated) and terminated() and not terminating()  # (block over)
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # restored
     assert EXIT_STATUS == 143
 
@@ -54,7 +61,14 @@ def test_each_block_starts_with_no_sigterm_seen():
     with pytest.raises(Terminated), sigterm_interrupts():
         _sigterm()
     with sigterm_interrupts():
-        assert not terminating()
+        assert not terminating() and not terminated()
+    assert not terminated()
+    with pytest.raises(Terminated), sigterm_interrupts():
+        _sigterm()
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a block that installs nothing resets it too
+    with sigterm_interrupts():
+        assert not handler_installed()
+    assert not terminated()
 
 
 def test_a_program_s_own_handler_is_left_alone():
@@ -129,3 +143,43 @@ def test_ctrl_c_is_still_an_interrupt(capsys, monkeypatch):
     monkeypatch.setattr(parser, "parse_known_args", lambda argv: (_namespace(command), []))
     assert cli.main(["adt"]) == 130
     assert capsys.readouterr().err == "replication adt: interrupted\n"
+
+
+def test_terminating_holds_only_inside_the_block_and_terminated_after_it():
+    """A SIGTERM of one command made later Ctrl-Cs in the same process abandon work (review)."""
+    with pytest.raises(Terminated), sigterm_interrupts():
+        _sigterm()
+    assert terminated() and not terminating()  # the exit status knows; executors no longer act on it
+
+
+def test_the_ga_s_guard_stops_after_a_sigterm_whose_raise_was_lost():
+    """A Terminated raised inside a fork hook or a finalizer is only reported: the run went on."""
+    from replication.casestudy.interrupts import InterruptGuard
+
+    with sigterm_interrupts(), InterruptGuard() as guard:
+        try:
+            _sigterm()
+        except Terminated:
+            pass  # lost, as Python loses an exception raised in a fork hook
+        assert guard.requested()
+        with pytest.raises(Terminated):
+            guard.check()
+
+
+def _worker_signals():
+    import signal
+
+    return signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL, signal.SIGTERM in signal.pthread_sigmask(
+        signal.SIG_BLOCK, []
+    )
+
+
+def test_workers_start_with_sigterm_held_and_take_it_once_set_up():
+    """A forked worker kept the parent's handler (raising Terminated) until its initializer ran."""
+    from replication.casestudy.evaluate import executor
+
+    with sigterm_interrupts(), executor("process", workers=1) as pool:
+        handled, blocked = pool.submit(_worker_signals).result(timeout=60)
+        assert handler_installed()  # the parent's own handler is untouched
+        assert signal.SIGTERM not in signal.pthread_sigmask(signal.SIG_BLOCK, [])  # and unblocked again
+    assert handled and not blocked  # the worker's own SIGTERM handler (it unwinds), and SIGTERM reaches it

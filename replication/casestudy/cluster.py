@@ -31,6 +31,7 @@ from collections.abc import Callable, Iterator
 
 from replication.casestudy.interrupts import sigint_ignored_by_children
 from replication.errors import ExecutorError, InputError
+from replication.io.atomic import interrupt_deferred
 from replication.sigterm import terminating
 
 __all__ = ["CONNECT_TIMEOUT_S", "check_scheduler_address", "dask_executor", "require_dask"]
@@ -138,18 +139,30 @@ def dask_executor(
         with _log_levels_restored(), _connect(scheduler) as client:
             yield from _dask_executor(client, on_interrupt, local=False)
     else:
-        with sigint_ignored_by_children():  # the worker processes started now inherit it
-            cluster = LocalCluster(
-                n_workers=workers,
-                threads_per_worker=1,
-                processes=True,
-                # no dashboard, and the scheduler's HTTP server on a free port: with
-                # dashboard_address=None it still binds the fixed port 8787
-                dashboard_address="127.0.0.1:0",
-                scheduler_kwargs={"dashboard": False},
-            )
-        with _log_levels_restored(), cluster, Client(cluster) as client:
+        # SIGTERM is held while the cluster and its client are made and closed: raised inside
+        # them, it left a worker process that no one closed, and the resource tracker's stop
+        # then waited for it for good (replication.sigterm)
+        with _log_levels_restored(), contextlib.ExitStack() as closing:
+            with sigint_ignored_by_children(), interrupt_deferred():  # the workers started now inherit it
+                cluster = LocalCluster(
+                    n_workers=workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    # no dashboard, and the scheduler's HTTP server on a free port: with
+                    # dashboard_address=None it still binds the fixed port 8787
+                    dashboard_address="127.0.0.1:0",
+                    scheduler_kwargs={"dashboard": False},
+                )
+                closing.callback(_held, cluster.close)
+                client = Client(cluster)
+                closing.callback(_held, client.close)
             yield from _dask_executor(client, on_interrupt, local=True)
+
+
+def _held(close: Callable[[], object]) -> None:
+    """``close()`` with Ctrl-C and SIGTERM held until it returns."""
+    with interrupt_deferred():
+        close()
 
 
 _DASK_LOGGERS = ("distributed", "tornado")

@@ -200,14 +200,18 @@ def worker_initializer(parent: int | None = None) -> None:
     A parent killed outright left its workers waiting forever, holding its run directory's
     lock (:func:`.interrupts.end_with_parent`, :func:`.rundir.close_inherited_locks`).
     """
+    # Until the worker is set up, SIGTERM (its parent's death among others) ends it at once:
+    # there is nothing to unwind yet, and a SystemExit raised inside the initializer would be
+    # logged by concurrent.futures as a traceback on the user's terminal. First of all, before
+    # any import: a forked worker has its parent's handler, which raises Terminated; the
+    # parent started it with SIGTERM blocked (interrupts._starting_a_child), now lifted.
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if hasattr(signal, "pthread_sigmask"):  # POSIX
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
     from replication.casestudy.rundir import close_inherited_locks
     from replication.threadlimits import limit_worker_blas
 
     ignore_interrupts()
-    # Until the worker is set up, SIGTERM (its parent's death among others) ends it at once:
-    # there is nothing to unwind yet, and a SystemExit raised inside the initializer would be
-    # logged by concurrent.futures as a traceback on the user's terminal.
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if parent is not None:
         end_with_parent(parent)
     close_inherited_locks()
@@ -233,7 +237,7 @@ def executor(
         than one worker is available, else serial.
     workers : int, optional
         Process-pool size, or the number of workers of a local dask cluster (default: the
-        number of CPUs).
+        CPUs this process may use, :func:`replication.cpus.usable_cpus`).
     scheduler : str, optional
         Address of a running dask scheduler (``tcp://host:8786``); implies dask.
     on_interrupt : callable, optional
@@ -243,7 +247,9 @@ def executor(
     abandon_on_interrupt : bool
         A process pool does not wait on Ctrl-C: its workers are ended at once, each killing
         the simulation it ran (for work that keeps nothing of an unfinished run, such as the
-        SPH study; ``on_interrupt`` is then not called).
+        SPH study; ``on_interrupt`` is then not called). A SIGTERM that the command takes as
+        an interrupt (:mod:`replication.sigterm`) abandons the work of a process pool or a
+        local dask cluster in any case, as a second Ctrl-C does.
 
     Raises
     ------
@@ -371,6 +377,8 @@ def _resource_tracker_stopped() -> Iterator[None]:
         yield
     finally:
         stop = getattr(tracker, "_stop", None)
-        if not was_running and callable(stop):
+        # a child still running (one a SIGTERM left behind) holds the tracker's pipe: stopping
+        # it would wait for that child for good; the tracker then ends with this process
+        if not was_running and callable(stop) and not multiprocessing.active_children():
             gc.collect()  # release the pool's semaphores now, while the tracker is there to hear it
             stop()

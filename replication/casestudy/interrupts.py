@@ -23,6 +23,8 @@ import time
 from collections.abc import Iterator
 from types import FrameType
 
+from replication.sigterm import Terminated, handler_installed, terminating
+
 __all__ = [
     "end_with_parent",
     "InterruptGuard",
@@ -68,11 +70,15 @@ class InterruptGuard:
         self._requested = True
 
     def requested(self) -> bool:
-        """Whether Ctrl-C was pressed while the guard was active."""
-        return self._requested
+        """Whether Ctrl-C was pressed while the guard was active, or SIGTERM arrived (whose raise
+        may have been lost, see :func:`replication.sigterm.terminating`)."""
+        return self._requested or terminating()
 
     def check(self) -> None:
-        """Raise :class:`KeyboardInterrupt` if a stop was requested."""
+        """Raise :class:`~replication.sigterm.Terminated` after a SIGTERM, :class:`KeyboardInterrupt`
+        if a stop was requested."""
+        if terminating():
+            raise Terminated
         if self._requested:
             raise KeyboardInterrupt
 
@@ -109,9 +115,31 @@ def sigint_blocked() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
+@contextlib.contextmanager
+def _starting_a_child() -> Iterator[None]:
+    """SIGINT blocked while a child process starts, and SIGTERM too while the command takes it
+    as an interrupt (:mod:`replication.sigterm`).
+
+    A ``Terminated`` raised while a fork runs the parent's fork hooks (Python code: logging's
+    lock release, say) is only reported there, and lost; and a forked child keeps the
+    parent's handler until its initializer replaces it. Held, the signal reaches the parent
+    after the start, and the child, which inherits the block, only once its initializer has
+    set its own handler and unblocked it (:func:`replication.casestudy.evaluate.worker_initializer`).
+    """
+    signals = {signal.SIGINT, signal.SIGTERM} if handler_installed() else {signal.SIGINT}
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - POSIX only
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, signals)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
 class _QuietSpawnProcess(multiprocessing.context.SpawnProcess):
     def start(self) -> None:
-        with sigint_blocked():
+        with _starting_a_child():
             super().start()
 
 
@@ -126,7 +154,7 @@ def quiet_spawn_context() -> multiprocessing.context.SpawnContext:
 
 class _QuietForkProcess(multiprocessing.context.ForkProcess):
     def start(self) -> None:
-        with sigint_blocked():  # (multiprocessing flushes stdout and stderr before it forks)
+        with _starting_a_child():  # (multiprocessing flushes stdout and stderr before it forks)
             super().start()
 
 

@@ -28,7 +28,7 @@ from typing import IO, NoReturn
 
 from replication.errors import ReplicationError, UsageError, escaped, shortened
 from replication.sigterm import EXIT_STATUS as SIGTERM_EXIT
-from replication.sigterm import sigterm_interrupts, terminating
+from replication.sigterm import sigterm_interrupts, terminated
 
 __all__ = ["COMMANDS", "build_parser", "main", "run"]
 
@@ -349,7 +349,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _stopped(name: str) -> int:
     """Say that the command was stopped, by Ctrl-C (exit 130) or SIGTERM (143)."""
-    if terminating():
+    if terminated():
         print(f"{name}: terminated (SIGTERM)", file=sys.stderr)
         return SIGTERM_EXIT
     print(f"{name}: interrupted", file=sys.stderr)

@@ -209,9 +209,9 @@ def interrupt_deferred() -> Iterator[None]:
     if sigterm.handler_installed():
         held[signal.SIGTERM] = signal.getsignal(signal.SIGTERM)  # type: ignore[assignment]
     caught: list[int] = []
-    for signum in held:
-        signal.signal(signum, lambda signum, frame: caught.append(signum))
     try:
+        for signum in held:  # (inside the try: a signal between the two leaves neither replaced)
+            signal.signal(signum, lambda signum, frame: caught.append(signum))
         yield
     finally:
         for signum, handler in held.items():
