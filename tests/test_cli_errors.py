@@ -733,16 +733,21 @@ def test_help_and_version_on_a_full_device_say_so(args):
     assert done.stderr == f"{name}: error: cannot write the standard output: No space left on device\n"
 
 
+@pytest.mark.parametrize("buffered", [True, False])
 @pytest.mark.parametrize("args", [["--help"], ["table1", "--help"], ["--version"]])
-def test_help_and_version_into_a_closed_pipe_end_quietly(args):
-    """``replication --version | true``: was a BrokenPipeError traceback."""
+def test_help_and_version_into_a_closed_pipe_end_quietly(args, buffered):
+    """``replication --version | true``: was a BrokenPipeError traceback (exit 0 when buffered)."""
+    import os
     import subprocess
     import sys
 
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    if not buffered:
+        env["PYTHONUNBUFFERED"] = "1"
     reader = subprocess.Popen([sys.executable, "-c", "pass"], stdin=subprocess.PIPE)
     reader.wait()  # gone before anything is written: the pipe has no reader
     command = [sys.executable, "-m", "replication", *args]
-    done = subprocess.run(command, stdout=reader.stdin, stderr=subprocess.PIPE, text=True)
+    done = subprocess.run(command, stdout=reader.stdin, stderr=subprocess.PIPE, text=True, env=env)
     reader.stdin.close()
     assert done.returncode == 141 and done.stderr == "", done.stderr
 

@@ -234,8 +234,9 @@ def _flush_answer(command: str | None) -> None:
         return
     try:
         sys.stdout.flush()
-    except BrokenPipeError:
+    except BrokenPipeError:  # as when the write itself found the reader gone (unbuffered)
         _quiet_stdout()
+        raise SystemExit(141) from None
     except OSError as exc:
         raise SystemExit(_answer_unwritten(command, exc)) from None
 
