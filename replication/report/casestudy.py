@@ -93,9 +93,18 @@ def _check_history(loaded: dict[str, Any], path: Path) -> None:
         expected = np.arange(1, last + 1)
         if generations.shape != expected.shape or not np.array_equal(generations, expected):
             missing = np.setdiff1d(expected, generations)
-            what = f"lacks generation(s) {_listed(missing)}" if missing.size else "has rows out of order"
+            values, counts = np.unique(generations, return_counts=True)
+            if missing.size:
+                what = f"lacks generation(s) {_listed(missing)}"
+            elif np.any(counts > 1):
+                what = f"has generation(s) {_listed(values[counts > 1])} more than once"
+            elif generations.size > expected.size:
+                what = f"has generation(s) {_listed(np.setdiff1d(generations, expected))} beyond {last}"
+            else:
+                what = "has rows out of order"
             raise ReportDataError(
-                f"{path}: run {run} {what} of 1-{last} (the file is damaged); regenerate the report data"
+                f"{path}: run {run} {what} (generations 1-{last} expected; the file is damaged); "
+                "regenerate the report data"
             )
 
 

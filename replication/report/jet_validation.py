@@ -49,8 +49,8 @@ OPTIONAL = ("surrogate_surfaces", "surrogate_params", "surrogate_agreement", "de
 PREFIX = "jet_validation"
 #: The columns of the tables that hold text; the others must hold numbers (see :func:`.store.read_csv`).
 TEXT_COLUMNS = frozenset({
-    "scope", "feature", "what", "surface", "family", "status_shifted", "sph_status", "sph_key", "stratum",
-    "half", "parameter", "meaning",
+    "scope", "feature", "what", "surface", "family", "status_shifted", "sph_status", "sph_reason", "sph_key",
+    "stratum", "half", "parameter", "meaning",
 })  # fmt: skip
 RESOLUTION_HEADER = ["surface", "family", "model", "last change", "rank (last two radii)", "residual bound"]
 CONVERGENCE_HEADER = [

@@ -20,7 +20,7 @@ __all__ = ["TABLES", "load_sph_data", "render_sph", "save_sph_data"]
 
 TABLES = ("runs", "series", "shapes", "hypotheses")
 #: The columns of the tables that hold text; the others must hold numbers (see :func:`.store.read_csv`).
-TEXT_COLUMNS = frozenset({"hypothesis", "why", "verdict", "shape", "method", "status", "key"})
+TEXT_COLUMNS = frozenset({"hypothesis", "why", "verdict", "shape", "method", "status", "reason", "key"})
 
 
 def save_sph_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
