@@ -181,13 +181,13 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     else:
         config = _requested_config(args)
         run_dir = Path(args.run_dir) if args.run_dir else _new_run_dir()
-        page = report_page_in(run_dir)
-        if page is not None:
-            raise InputError(
-                f"--run-dir {run_dir} is a reports directory (it holds {page.name}): the GA's checkpoints "
-                "go into a directory of their own"
-            )
         if lookup(run_dir, InputError, "--run-dir").is_dir:
+            page = report_page_in(run_dir)
+            if page is not None:
+                raise InputError(
+                    f"--run-dir {run_dir} is a reports directory (it holds {page.name}): the GA's "
+                    "checkpoints go into a directory of their own"
+                )
             found = checkpoints(run_dir)
             if found:
                 raise InputError(
