@@ -62,4 +62,20 @@ def test_ctrl_c_while_pyvista_is_imported_waits_for_the_import(monkeypatch):
         render3d._load_pyvista()
     # pyvista.plotting (most of VTK, loaded lazily by the first pv.Plotter) is imported while
     # Ctrl-C waits too: outside, a Ctrl-C there segfaulted or was swallowed
-    assert imported == ["pyvista", "pyvista.plotting"]
+    assert imported == ["pyvista", "pyvista.plotting", *render3d._PLOTTER_MODULES]
+
+
+def test_after_loading_pyvista_the_first_plotter_imports_no_vtk_module():
+    """pv.Plotter() imported three VTK modules itself: a SIGTERM there crashed (SIGSEGV) or was
+    taken for "pyvista cannot render" (4 of 80 at that moment)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\nfrom replication.report.render3d import _load_pyvista\npv = _load_pyvista()\n"
+        "before = set(sys.modules)\npv.Plotter(off_screen=True).close()\n"
+        "print(sorted(m for m in set(sys.modules) - before if m.startswith('vtkmodules')))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"

@@ -8,6 +8,7 @@ views are drawn with matplotlib's 3-D axes and :func:`render_views` says so.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import os
 from collections.abc import Sequence
@@ -33,7 +34,10 @@ def _load_pyvista() -> Any:
     built, and the interpreter then crashed (a segmentation fault, 3 of 40 Ctrl-Cs at that
     moment) instead of reporting the interrupt. ``pyvista.plotting``, which pyvista loads
     lazily on the first ``pv.Plotter`` and which pulls in most of VTK, is loaded here too: a
-    Ctrl-C during that later import crashed the same way or was swallowed (2-3 of 60).
+    Ctrl-C during that later import crashed the same way or was swallowed (2-3 of 60). So are
+    the VTK modules the first ``pv.Plotter`` still loads on its own (:data:`_PLOTTER_MODULES`):
+    interrupted there, VTK crashed or raised an ``ImportError`` that :func:`render_views` took
+    for "cannot render" (4 of 80 SIGTERMs at that moment).
     """
     from replication.io.atomic import interrupt_deferred
 
@@ -41,7 +45,18 @@ def _load_pyvista() -> Any:
     with interrupt_deferred():
         pv = importlib.import_module("pyvista")
         importlib.import_module("pyvista.plotting")
+        for name in _PLOTTER_MODULES:
+            with contextlib.suppress(ImportError):  # (a VTK build without one: pv.Plotter says so)
+                importlib.import_module(name)
         return pv
+
+
+#: The VTK modules ``pyvista.Plotter()`` imports on first use (measured with pyvista 0.49, VTK 9.7).
+_PLOTTER_MODULES = (
+    "vtkmodules.vtkViewsCore",
+    "vtkmodules.vtkViewsContext2D",
+    "vtkmodules.vtkInteractionWidgets",
+)
 
 
 def _pyvista_views(views: dict[Path, Sequence[tuple[str, Mesh]]], size: tuple[int, int]) -> None:
