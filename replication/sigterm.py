@@ -15,6 +15,9 @@ process that is told to terminate abandons them at once, as a second Ctrl-C does
 (:func:`terminating` tells the executors, :func:`replication.casestudy.evaluate.executor`).
 Only the first SIGTERM is taken: a second one, which a supervisor may send while the command
 unwinds, is ignored, so it cannot cut the clean-up short (SIGKILL still ends the process).
+Python only reports an exception raised in a finalizer or a weakref callback, so the first
+raise can be lost: the GA's guard then stops the run between evaluations
+(:func:`terminating`), and a block that ends normally after a SIGTERM raises it at its end.
 Moves of finished files into place hold SIGTERM, as they hold Ctrl-C
 (:func:`replication.io.atomic.interrupt_deferred`).
 
@@ -99,3 +102,5 @@ def sigterm_interrupts() -> Iterator[None]:
         yield
     finally:
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if _terminated:  # its raise was lost (in a finalizer, a weakref callback): the exit status still says so
+        raise Terminated

@@ -156,7 +156,7 @@ def test_the_ga_s_guard_stops_after_a_sigterm_whose_raise_was_lost():
     """A Terminated raised inside a fork hook or a finalizer is only reported: the run went on."""
     from replication.casestudy.interrupts import InterruptGuard
 
-    with sigterm_interrupts(), InterruptGuard() as guard:
+    with pytest.raises(Terminated), sigterm_interrupts(), InterruptGuard() as guard:  # (and at its end)
         try:
             _sigterm()
         except Terminated:
@@ -183,3 +183,29 @@ def test_workers_start_with_sigterm_held_and_take_it_once_set_up():
         assert handler_installed()  # the parent's own handler is untouched
         assert signal.SIGTERM not in signal.pthread_sigmask(signal.SIG_BLOCK, [])  # and unblocked again
     assert handled and not blocked  # the worker's own SIGTERM handler (it unwinds), and SIGTERM reaches it
+
+
+def test_a_command_whose_sigterm_raise_was_lost_still_ends_with_143(capsys, monkeypatch):
+    """Python only reports an exception raised in a finalizer: the command ran on and exited 0."""
+    import sys
+
+    from replication import cli
+
+    lost = []
+    monkeypatch.setattr(sys, "unraisablehook", lambda info: lost.append(info.exc_type))
+
+    class SignalledWhileFinalized:
+        def __del__(self):
+            _sigterm()  # the handler runs here, and its Terminated goes to sys.unraisablehook
+
+    def command(args):
+        SignalledWhileFinalized()
+        _sigterm()  # a supervisor's second SIGTERM: ignored, as always
+        return 0
+
+    parser = cli.build_parser(["report"])
+    monkeypatch.setattr(cli, "build_parser", lambda commands: parser)
+    monkeypatch.setattr(parser, "parse_known_args", lambda argv: (_namespace(command), []))
+    assert cli.main(["report"]) == 143
+    assert lost == [Terminated]
+    assert capsys.readouterr().err == "replication adt: terminated (SIGTERM)\n"

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing.context
+import multiprocessing.resource_tracker
 import os
 import select
 import signal
@@ -139,6 +140,9 @@ def _starting_a_child() -> Iterator[None]:
 
 class _QuietSpawnProcess(multiprocessing.context.SpawnProcess):
     def start(self) -> None:
+        # the resource tracker, which a spawned child needs, is started first: starting it
+        # unblocks both signals for a moment, and the child started then would not have them held
+        multiprocessing.resource_tracker.ensure_running()
         with _starting_a_child():
             super().start()
 
