@@ -73,6 +73,15 @@ def _row_beyond(history):
     return pd.concat([history, extra]).sort_values(["run", "generation"], kind="stable")
 
 
+def _generation(value):
+    def damage(history):
+        history = history.astype({"generation": float})
+        history.loc[(history["run"] == 1) & (history["generation"] == 7), "generation"] = value
+        return history
+
+    return damage
+
+
 def _rows_swapped(history):
     order = np.arange(len(history))
     first = int(np.flatnonzero(history["run"].to_numpy() == 1)[5])
@@ -86,7 +95,10 @@ def _rows_swapped(history):
         (_rows_lost, "lacks generation(s) 3, 4"),
         (_last_lost, "lacks generation(s) 50"),
         (_row_twice, "has generation(s) 3 more than once"),
-        (_row_beyond, "has generation(s) 51 beyond 50"),
+        (_row_beyond, "has generation(s) 51 outside 1-50"),
+        (_generation(0), "has generation(s) 0 outside 1-50"),
+        (_generation(3.5), "has generation(s) 3.5 outside 1-50"),
+        (_generation(float("nan")), "has a row without its generation"),
         (_rows_swapped, "has rows out of order"),
     ],
 )

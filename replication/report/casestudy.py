@@ -93,13 +93,16 @@ def _check_history(loaded: dict[str, Any], path: Path) -> None:
         expected = np.arange(1, last + 1)
         if generations.shape != expected.shape or not np.array_equal(generations, expected):
             missing = np.setdiff1d(expected, generations)
+            stray = generations[~np.isin(generations, expected)]
             values, counts = np.unique(generations, return_counts=True)
-            if missing.size:
+            if np.isnan(stray.astype(float)).any():
+                what = "has a row without its generation"
+            elif stray.size:
+                what = f"has generation(s) {_listed(stray)} outside 1-{last}"
+            elif missing.size:
                 what = f"lacks generation(s) {_listed(missing)}"
             elif np.any(counts > 1):
                 what = f"has generation(s) {_listed(values[counts > 1])} more than once"
-            elif generations.size > expected.size:
-                what = f"has generation(s) {_listed(np.setdiff1d(generations, expected))} beyond {last}"
             else:
                 what = "has rows out of order"
             raise ReportDataError(
@@ -109,7 +112,7 @@ def _check_history(loaded: dict[str, Any], path: Path) -> None:
 
 
 def _listed(values: np.ndarray, at_most: int = 5) -> str:
-    shown = ", ".join(str(int(v)) for v in values[:at_most])
+    shown = ", ".join(f"{v:g}" for v in values[:at_most])
     return shown + (f" and {values.size - at_most} more" if values.size > at_most else "")
 
 
