@@ -34,7 +34,6 @@ __all__ = [
     "ignore_interrupts",
     "quiet_spawn_context",
     "quiet_worker_context",
-    "sigint_blocked",
 ]
 
 
@@ -97,29 +96,15 @@ def caused_by_interrupt(exc: BaseException) -> bool:
 
 
 @contextlib.contextmanager
-def sigint_blocked() -> Iterator[None]:
-    """Block SIGINT in the calling thread; processes and threads started inside inherit the block.
+def _starting_a_child() -> Iterator[None]:
+    """SIGINT blocked in the calling thread while a child process starts, and SIGTERM too while
+    the command takes it as an interrupt (:mod:`replication.sigterm`); the child inherits the block.
 
     Ctrl-C in a terminal signals every process of the foreground group, worker processes
     included. Workers started with SIGINT blocked never see it: the parent alone decides
     when to stop (between evaluations), and no worker prints a traceback or dies in the
     middle of an evaluation. A SIGINT that reaches the parent meanwhile stays pending and is
     delivered when the block ends. Without ``pthread_sigmask`` (Windows) nothing is blocked.
-    """
-    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - POSIX only
-        yield
-        return
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
-
-
-@contextlib.contextmanager
-def _starting_a_child() -> Iterator[None]:
-    """SIGINT blocked while a child process starts, and SIGTERM too while the command takes it
-    as an interrupt (:mod:`replication.sigterm`).
 
     A ``Terminated`` raised while a fork runs the parent's fork hooks (Python code: logging's
     lock release, say) is only reported there, and lost; and a forked child keeps the
@@ -188,7 +173,7 @@ def sigint_ignored_by_children() -> Iterator[None]:
     """Ignore SIGINT process-wide while worker processes are started in other threads.
 
     A local dask cluster starts its worker processes from its own threads, which a
-    thread-level block (:func:`sigint_blocked`) does not reach; an ignored SIGINT, however,
+    thread-level block (:func:`_starting_a_child`) does not reach; an ignored SIGINT, however,
     stays ignored across ``exec``, and Python keeps it so in the child. The price: a Ctrl-C
     in the second or so the cluster takes to start is ignored (press it again). Only in the
     main thread (elsewhere nothing changes).

@@ -28,13 +28,14 @@ from replication.cli.outputs import (
 from replication.cli.progress import progress_bar
 from replication.cpus import usable_cpus
 from replication.kernels import release_threads, warm_up
+from replication.report.pages import PAGE_TITLES
 
 #: asv's results directory in a checkout (``results_dir`` of asv.conf.json).
 DEFAULT_ASV_RESULTS = ".asv/results"
 #: How many recent commits the committed performance.md shows (``report --commits``).
 DEFAULT_COMMITS = 5
 #: The markdown files ``replication report`` may write.
-RENDERED = ("table1.md", "sph.md", "jet_validation.md", "casestudy.md", "performance.md", "index.md")
+RENDERED = tuple(PAGE_TITLES)
 
 
 def _run_table1(out: Path, quick: bool, command: str, workers: int | None = None) -> Path:

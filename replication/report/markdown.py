@@ -108,4 +108,4 @@ def write_report(path: Path, text: str) -> Path:
         old = None
     if old is not None and _RENDERED_BY.sub("", old) == _RENDERED_BY.sub("", marked(text)):
         return path
-    return write_page(path, text)
+    return write_page(path, text, old=old)

@@ -74,10 +74,15 @@ def is_ours(path: str | os.PathLike[str]) -> bool:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError):
         return False  # a directory, an unreadable file, or not UTF-8 text: not a page of ours
+    return _ours(path.name, text)
+
+
+def _ours(name: str, text: str) -> bool:
+    """Whether ``text``, read from a file named ``name``, is a page of ours (see :func:`is_ours`)."""
     if MARKER in text:
         return True
-    title = PAGE_TITLES.get(path.name)
-    sign = _DRAWN_BEFORE.get(path.name, _RENDER_COMMIT)
+    title = PAGE_TITLES.get(name)
+    sign = _DRAWN_BEFORE.get(name, _RENDER_COMMIT)
     return title is not None and text.split("\n", 1)[0] == title and sign in text
 
 
@@ -126,7 +131,7 @@ def check_pages(out: str | os.PathLike[str], what: str, pages: Iterable[str] = t
             raise _refusal(path, what)
 
 
-def write_page(path: str | os.PathLike[str], text: str) -> Path:
+def write_page(path: str | os.PathLike[str], text: str, *, old: str | None = None) -> Path:
     """Write a page atomically with :data:`MARKER` as its last line, never over another file.
 
     Parameters
@@ -135,6 +140,8 @@ def write_page(path: str | os.PathLike[str], text: str) -> Path:
         The page's file.
     text : str
         The page, ending with a line end.
+    old : str, optional
+        The file's text, when the caller has read it already (it is not read again).
 
     Returns
     -------
@@ -148,7 +155,7 @@ def write_page(path: str | os.PathLike[str], text: str) -> Path:
     from replication.io.atomic import atomic_write_text
 
     path = Path(path)
-    if not is_ours(path):
+    if not (_ours(path.name, old) if old is not None else is_ours(path)):
         raise _refusal(path, "report page")
     atomic_write_text(path, marked(text))
     return path
