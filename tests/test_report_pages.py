@@ -145,3 +145,37 @@ def test_a_reports_directory_is_no_ga_run_directory(tmp_path, monkeypatch, capsy
     from replication.report.pages import report_page_in
 
     assert report_page_in(tmp_path / "notes") is None and report_page_in(tmp_path / "missing") is None
+
+
+@pytest.mark.parametrize("engine", [True, False])
+def test_reproduce_checks_only_the_pages_of_the_stages_it_will_run(engine, tmp_path, monkeypatch, capsys):
+    """``reproduce`` refused a user's own ``jet_validation.md`` (or ``sph.md``) although it was
+    going to skip that stage: without a filled SPH cache and saved data, or without the engine."""
+    import argparse
+    import shutil
+
+    import replication.casestudy.sph as sph
+    from replication.cli.outputs import planned_output_dir
+    from replication.cli.reports import _reproduce_pages
+
+    monkeypatch.setattr(sph, "engine_available", lambda: engine)
+    monkeypatch.setenv("REPLICATION_SPH_CACHE", str(tmp_path / "empty-cache"))
+    notes = tmp_path / "notes"
+    notes.mkdir()
+    for page in ("sph.md", "jet_validation.md"):
+        (notes / page).write_text(NOTES)
+    drawn = _reproduce_pages(notes, quick=True)
+    assert "jet_validation.md" not in drawn and ("sph.md" in drawn) is engine
+    assert {"table1.md", "casestudy.md", "index.md"} <= set(drawn) and "performance.md" not in drawn
+    args = argparse.Namespace(output_dir=str(notes), quick=True)
+    if engine:  # the SPH stage runs: its page is checked
+        with pytest.raises(OutputError, match=r"sph\.md is not a report page"):
+            planned_output_dir(args, lambda out: _reproduce_pages(out, quick=True))
+        (notes / "sph.md").unlink()
+    assert planned_output_dir(args, lambda out: _reproduce_pages(out, quick=True)) == notes
+    (notes / "data").mkdir()  # the saved study: the stage re-renders it, so its page is checked
+    for path in (ROOT / "reports" / "data").glob("jet_validation_*"):
+        shutil.copy(path, notes / "data" / path.name)
+    assert "jet_validation.md" in _reproduce_pages(notes, quick=True)
+    with pytest.raises(OutputError, match=r"jet_validation\.md is not a report page"):
+        planned_output_dir(args, lambda out: _reproduce_pages(out, quick=True))

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import re
+from collections.abc import Callable
 from pathlib import Path
 
 from replication.io.paths import REPORT_SUBDIRS, check_report_dir
@@ -39,18 +40,21 @@ TABLE1_SUBDIRS = (*REPORT_SUBDIRS, "data/table1_meshes")
 
 
 def planned_output_dir(
-    args: argparse.Namespace, pages: tuple[str, ...], subdirs: tuple[str, ...] = REPORT_SUBDIRS
+    args: argparse.Namespace,
+    pages: tuple[str, ...] | Callable[[Path], tuple[str, ...]],
+    subdirs: tuple[str, ...] = REPORT_SUBDIRS,
 ) -> Path:
     """The reports directory of ``table1``/``reproduce``/``sph``/``validate-jet``, checked (not
     created), with the ``subdirs`` the command writes into and the ``pages`` it writes (each
-    absent or a page of ours, :func:`replication.report.pages.check_pages`)."""
+    absent or a page of ours, :func:`replication.report.pages.check_pages`; a function of the
+    directory when which pages are drawn depends on what it holds)."""
     from replication.report.pages import check_pages
 
     explicit = getattr(args, "output_dir", None)
     out = Path(explicit or (QUICK_DIR if getattr(args, "quick", False) else DEFAULT_DIR))
     what = "--output-dir" if explicit else "the reports directory"
     check_report_dir(out, what, subdirs)
-    check_pages(out, what, pages)
+    check_pages(out, what, pages(out) if callable(pages) else pages)
     return out
 
 

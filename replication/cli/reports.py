@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 import time
 from collections.abc import Callable
@@ -252,8 +253,22 @@ STAGES = (
 )
 
 
+def _reproduce_pages(out: Path, *, quick: bool) -> tuple[str, ...]:
+    """The pages ``reproduce`` may draw into ``out``: not those of a stage it will skip, so
+    that a file of that name there (somebody else's) is not refused for nothing."""
+    from replication.casestudy.sph import engine_available
+    from replication.cli.validate_run import reproduce_draws
+
+    skipped = set()
+    if not engine_available():
+        skipped.add("sph.md")
+    if not reproduce_draws(out, quick):
+        skipped.add("jet_validation.md")
+    return tuple(p for p in RENDERED if p != "performance.md" and p not in skipped)
+
+
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    out = planned_output_dir(args, tuple(p for p in RENDERED if p != "performance.md"), TABLE1_SUBDIRS)
+    out = planned_output_dir(args, functools.partial(_reproduce_pages, quick=args.quick), TABLE1_SUBDIRS)
     ga_args = argparse.Namespace(
         quick=args.quick, runs=None, generations=None, population=None, seed=None, run_dir=None,
         resume=False, executor="auto", workers=args.workers, scheduler=None, invocation=args.invocation,

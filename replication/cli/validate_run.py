@@ -138,24 +138,9 @@ def reproduce_stage(out: Path, quick: bool, command: str) -> tuple[Path | None, 
     Returns the report's path and a note on where it came from (empty: from the cache), or None
     and why the stage was skipped.
     """
-    from replication.casestudy.sph import INSTALL_HINT, engine_available
-    from replication.casestudy.sph_batch import CACHE_ENV, default_cache_dir
     from replication.errors import SimulationError
-    from replication.experiments.jet_surface_set import set_path
-    from replication.experiments.jet_validation import ValidationConfig
 
-    cache = default_cache_dir()
-    config = ValidationConfig.quick() if quick else ValidationConfig()
-    if not engine_available():
-        why = f"the SPH solver is not installed ({INSTALL_HINT})"
-    elif not set_path(cache, config).is_file():
-        flag = " --quick" if quick else ""
-        why = (
-            f"no study in the SPH cache {cache}/: run `replication validate-jet{flag}` first (SPH), "
-            f"or set {CACHE_ENV} to the directory of a filled cache"
-        )
-    else:
-        why = ""
+    cache, why = _cache_why(quick)
     if not why:
         args = argparse.Namespace(
             quick=quick, timeout=None, cache_dir=str(cache), executor="serial", workers=1, scheduler=None,
@@ -166,6 +151,34 @@ def reproduce_stage(out: Path, quick: bool, command: str) -> tuple[Path | None, 
         except SimulationError as exc:
             why = f"{exc} (run `replication validate-jet`)"
     return _from_saved(out, why)
+
+
+def _cache_why(quick: bool) -> tuple[Path, str]:
+    """The SPH cache, and why the study cannot be reported from it ("" when it can)."""
+    from replication.casestudy.sph import INSTALL_HINT, engine_available
+    from replication.casestudy.sph_batch import CACHE_ENV, default_cache_dir
+    from replication.experiments.jet_surface_set import set_path
+    from replication.experiments.jet_validation import ValidationConfig
+
+    cache = default_cache_dir()
+    config = ValidationConfig.quick() if quick else ValidationConfig()
+    if not engine_available():
+        return cache, f"the SPH solver is not installed ({INSTALL_HINT})"
+    if not set_path(cache, config).is_file():
+        flag = " --quick" if quick else ""
+        return cache, (
+            f"no study in the SPH cache {cache}/: run `replication validate-jet{flag}` first (SPH), "
+            f"or set {CACHE_ENV} to the directory of a filled cache"
+        )
+    return cache, ""
+
+
+def reproduce_draws(out: Path, quick: bool) -> bool:
+    """Whether :func:`reproduce_stage` may draw the report into ``out`` (it skips the stage
+    otherwise), decided before any work so that only a page it may draw is checked."""
+    from replication.report.jet_validation import saved_study
+
+    return not _cache_why(quick)[1] or saved_study(out)
 
 
 def _from_saved(out: Path, why: str) -> tuple[Path | None, str]:
