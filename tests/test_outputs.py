@@ -154,6 +154,47 @@ def test_all_outputs_replaced_together_on_success(capsys, tmp_path):
     assert (tmp_path / "c.csv").read_text().count("\n") == 31
 
 
+@pytest.mark.parametrize("signum", ["SIGINT", "SIGTERM"])
+def test_a_signal_while_the_outputs_are_moved_says_they_were_written(capsys, tmp_path, monkeypatch, signum):
+    """A Ctrl-C held while the files were moved into place was reported as a bare "interrupted",
+    so the new files looked unwritten; it now says which files the command had written."""
+    import signal
+
+    from replication.sigterm import sigterm_interrupts
+
+    real_replace = os.replace
+    sent = []
+
+    def replace(src, dst):
+        if not sent:  # the first move: the signal is held until the last one is done
+            sent.append(signum)
+            os.kill(os.getpid(), getattr(signal, signum))
+        real_replace(src, dst)
+
+    _existing_outputs(tmp_path)
+    monkeypatch.setattr(os, "replace", replace)
+    if signum == "SIGTERM":  # main installs the handler around the command, as the console script
+        monkeypatch.setattr("replication.cli.sigterm_interrupts", sigterm_interrupts)
+    code, _, err = run(capsys, "adt", "--random", "30", "--seed", "1", "-o", tmp_path / "s.vtk",
+                       "--save-cloud", tmp_path / "c.csv")  # fmt: skip
+    said = "interrupted" if signum == "SIGINT" else "terminated (SIGTERM)"
+    assert (code, sent) == ((130 if signum == "SIGINT" else 143), [signum])
+    files = f"{tmp_path / 's.vtk'}, {tmp_path / 'c.csv'}"
+    assert err == f"replication adt: {said} after writing 2 files ({files})\n"
+    assert (tmp_path / "s.vtk").read_text().startswith("# vtk DataFile")  # the new files, whole
+    assert (tmp_path / "c.csv").read_text().count("\n") == 31
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.csv", "s.vtk"]  # no temporary or backup
+
+
+def test_a_ctrl_c_before_the_moves_names_no_file(tmp_path):
+    from replication.io.atomic import all_or_none, atomic_write_text, written_before
+
+    with pytest.raises(KeyboardInterrupt) as caught, all_or_none():
+        atomic_write_text(tmp_path / "a.txt", "a")
+        raise KeyboardInterrupt
+    assert written_before(caught.value) == () and not list(tmp_path.iterdir())
+
+
 @pytest.mark.skipif(not os.path.isdir("/sys/kernel"), reason="needs sysfs, where no file can be created")
 @pytest.mark.parametrize(
     ("command", "option", "name"),

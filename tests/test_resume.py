@@ -197,6 +197,36 @@ def test_ctrl_c_while_the_report_data_are_saved_keeps_the_previous_data_set(caps
     assert provenance["config"]["seed"] == 6
 
 
+def test_ctrl_c_held_while_the_data_are_moved_into_place_says_they_were_saved(capsys, tmp_path, monkeypatch):
+    """The Ctrl-C came as the new data were moved into place, so it was held until they all
+    were; the message said the previous data were as they were, and offered to save again."""
+    import os
+    import signal
+
+    monkeypatch.chdir(tmp_path)
+    real_replace = os.replace
+    sent = []
+
+    def replace(src, dst):
+        if os.path.basename(os.path.dirname(dst)) == "data" and not sent:  # publishing the data set
+            sent.append(dst)
+            os.kill(os.getpid(), signal.SIGINT)
+        real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", replace)
+    assert main(["casestudy", *TINY_ARGS, "--seed", "6", "--output-dir", "out", "--run-dir", "r6"]) == 130
+    err = capsys.readouterr().err
+    assert len(sent) == 1 and "are as they were" not in err, err
+    assert "interrupted once the data were saved in out/data: draw the report with: " in err
+    assert err.strip().splitlines()[-1].startswith("replication casestudy: interrupted after writing ")
+    monkeypatch.undo()
+    monkeypatch.chdir(tmp_path)
+    provenance = json.loads((tmp_path / "out" / "data" / "casestudy_provenance.json").read_text())
+    assert provenance["config"]["seed"] == 6  # the new data, all of them
+    hint = shlex.split(err.split("draw the report with: ", 1)[1].splitlines()[0])
+    assert hint == ["replication", "report", "--output-dir", "out"] and main(hint[1:]) == 0
+
+
 def test_ctrl_c_while_table1_is_drawn_says_the_data_are_saved(capsys, tmp_path, monkeypatch):
     def ctrl_c(out, workers=1):
         raise KeyboardInterrupt
@@ -213,6 +243,27 @@ def test_ctrl_c_while_table1_is_drawn_says_the_data_are_saved(capsys, tmp_path, 
     hint = shlex.split(err.split("draw it with: ", 1)[1].splitlines()[0])
     assert hint == ["replication", "report", "--output-dir", "out dir"]
     assert err.strip().splitlines()[-1] == "replication table1: interrupted"
+
+
+def test_ctrl_c_held_while_table1_s_data_are_published_says_they_were_saved(capsys, tmp_path, monkeypatch):
+    from pathlib import Path
+
+    from replication.io.atomic import note_written
+
+    def saved_then_ctrl_c(results, out):
+        exc = KeyboardInterrupt()
+        note_written(exc, [Path(out) / "data" / "table1_provenance.json"])  # as data_set does
+        raise exc
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("replication.experiments.table1.run_table1", lambda config, **kw: "results")
+    monkeypatch.setattr("replication.report.table1.save_table1_data", saved_then_ctrl_c)
+    assert main(["table1", "--quick", "--output-dir", "out"]) == 130
+    first, last = capsys.readouterr().err.strip().splitlines()
+    assert first == "interrupted once the data were saved in out/data: draw the report with: " + shlex.join(
+        ["replication", "report", "--output-dir", "out"]
+    )
+    assert last == "replication table1: interrupted after writing 1 file (out/data/table1_provenance.json)"
 
 
 def test_ctrl_c_while_the_report_is_drawn_says_the_data_are_saved(capsys, tmp_path, monkeypatch):

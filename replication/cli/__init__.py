@@ -330,8 +330,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ReplicationError as exc:
         print(f"{name}: error: {escaped(str(exc))}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        return _stopped(name)
+    except KeyboardInterrupt as exc:
+        return _stopped(name, exc)
     except BrokenPipeError:  # the reader went away (``replication adt ... --json | head``): quietly
         _quiet_stdout()
         return 141  # 128 + SIGPIPE, as a shell pipeline's other programs end
@@ -348,12 +348,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stdout = stdout
 
 
-def _stopped(name: str) -> int:
-    """Say that the command was stopped, by Ctrl-C (exit 130) or SIGTERM (143)."""
+def _stopped(name: str, exc: BaseException | None = None) -> int:
+    """Say that the command was stopped, by Ctrl-C (exit 130) or SIGTERM (143), and which
+    files it had written when the signal came while they were moved into place."""
+    from replication.io.atomic import written_before
+
+    written = written_before(exc) if exc is not None else ()
+    after = ""
+    if written:
+        shown = ", ".join(str(path) for path in written[:3]) + (", ..." if len(written) > 3 else "")
+        after = f" after writing {len(written)} file{'s' if len(written) > 1 else ''} ({escaped(shown)})"
     if terminated():
-        print(f"{name}: terminated (SIGTERM)", file=sys.stderr)
+        print(f"{name}: terminated (SIGTERM){after}", file=sys.stderr)
         return SIGTERM_EXIT
-    print(f"{name}: interrupted", file=sys.stderr)
+    print(f"{name}: interrupted{after}", file=sys.stderr)
     return 130
 
 

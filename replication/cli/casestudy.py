@@ -51,6 +51,7 @@ from replication.cli.outputs import (
     remove_unused_run_dir,
 )
 from replication.cli.progress import Progress
+from replication.io.atomic import written_before
 
 EPILOG = f"""\
 examples:
@@ -287,25 +288,26 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
         except BaseException:
             remove_unused_run_dir(plan.run_dir, plan.created)
             raise
+    command = shlex.join(["replication", "report", "--output-dir", str(plan.out)])
     try:
         with say_when_publishing_waits():
             save_casestudy_data(results, plan.out)
-    except KeyboardInterrupt:
-        print(
-            f"interrupted while saving the data: every run is complete in {plan.run_dir} and the "
-            f"previous data in {plan.out / 'data'} are as they were; save them with: {plan.hint}",
-            file=sys.stderr,
-        )
+    except KeyboardInterrupt as exc:
+        if written_before(exc):  # held while the files were moved into place: they are
+            said = f"once the data were saved in {plan.out / 'data'}: draw the report with: {command}"
+        else:
+            said = (
+                f"while saving the data: every run is complete in {plan.run_dir} and the previous "
+                f"data in {plan.out / 'data'} are as they were; save them with: {plan.hint}"
+            )
+        print(f"interrupted {said}", file=sys.stderr)
         raise
     try:
         return results, render_casestudy(plan.out, workers=_workers(args))
-    except KeyboardInterrupt:
-        command = shlex.join(["replication", "report", "--output-dir", str(plan.out)])
-        print(
-            f"interrupted while drawing the report: its data are saved in {plan.out / 'data'}; "
-            f"draw it with: {command}",
-            file=sys.stderr,
-        )
+    except KeyboardInterrupt as exc:
+        if not written_before(exc):  # (else it was drawn: the command's last line names its files)
+            print(f"interrupted while drawing the report: its data are saved in {plan.out / 'data'}; "
+                  f"draw it with: {command}", file=sys.stderr)  # fmt: skip
         raise
 
 

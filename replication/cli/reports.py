@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import shlex
 import sys
 import time
 from collections.abc import Callable
@@ -28,6 +29,7 @@ from replication.cli.outputs import (
 )
 from replication.cli.progress import progress_bar
 from replication.cpus import usable_cpus
+from replication.io.atomic import written_before
 from replication.kernels import release_threads, warm_up
 from replication.report.pages import PAGE_TITLES
 
@@ -46,19 +48,21 @@ def _run_table1(out: Path, quick: bool, command: str, workers: int | None = None
     config = Table1Config.quick_config() if quick else Table1Config()
     workers = workers or usable_cpus()
     results = run_table1(config, progress=progress_bar, command=command, workers=workers)
-    with say_when_publishing_waits():
-        save_table1_data(results, out)
+    draw = shlex.join(["replication", "report", "--output-dir", str(out)])
+    try:
+        with say_when_publishing_waits():
+            save_table1_data(results, out)
+    except KeyboardInterrupt as exc:  # held while the files were moved into place: they are
+        if written_before(exc):
+            print(f"interrupted once the data were saved in {out / 'data'}: draw the report with: {draw}",
+                  file=sys.stderr)  # fmt: skip
+        raise
     try:
         return render_table1(out, workers=workers)
-    except KeyboardInterrupt:  # minutes of experiment are saved: say so, and how to draw them
-        import shlex
-
-        command = shlex.join(["replication", "report", "--output-dir", str(out)])
-        print(
-            f"interrupted while drawing the report: its data are saved in {out / 'data'}; "
-            f"draw it with: {command}",
-            file=sys.stderr,
-        )
+    except KeyboardInterrupt as exc:  # minutes of experiment are saved: say so, and how to draw them
+        if not written_before(exc):  # (else it was drawn: the command's last line names its files)
+            print(f"interrupted while drawing the report: its data are saved in {out / 'data'}; "
+                  f"draw it with: {draw}", file=sys.stderr)  # fmt: skip
         raise
 
 

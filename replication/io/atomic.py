@@ -21,7 +21,7 @@ import signal
 import socket
 import tempfile
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from types import FrameType
 from typing import Any
@@ -36,8 +36,10 @@ __all__ = [
     "atomic_write_text",
     "check_output_path",
     "interrupt_deferred",
+    "note_written",
     "writer_gone",
     "writer_tag",
+    "written_before",
 ]
 
 
@@ -263,10 +265,30 @@ def all_or_none() -> Iterator[None]:
             yield
         finally:
             _STAGED.reset(token)
-        with interrupt_deferred():
-            _move_all(staged)
+        moved = False
+        try:
+            with interrupt_deferred():
+                _move_all(staged)
+                moved = True
+        except KeyboardInterrupt as exc:  # held during the moves, raised once they were done
+            if moved:
+                note_written(exc, [final for _, final in staged])
+            raise
     finally:
         _drop(staged)  # what was not moved (all of them after an error)
+
+
+def note_written(exc: BaseException, paths: Iterable[Path]) -> None:
+    """Record on the interrupt ``exc`` that ``paths`` were moved into place while it was held
+    (:func:`written_before` tells them)."""
+    exc.written = (*written_before(exc), *paths)  # type: ignore[attr-defined]
+
+
+def written_before(exc: BaseException) -> tuple[Path, ...]:
+    """The files :func:`all_or_none` had moved into place when it raised the Ctrl-C (or
+    SIGTERM) ``exc`` that it held meanwhile: the block's writes are complete, so a message
+    must not say that the previous files are as they were. Empty for any other interrupt."""
+    return tuple(getattr(exc, "written", ()))
 
 
 def _drop(staged: list[tuple[Path, Path]]) -> None:

@@ -23,7 +23,13 @@ import numpy as np
 import pandas as pd
 
 from replication.errors import ReportDataError
-from replication.io.atomic import atomic_write_text, interrupt_deferred, writer_gone, writer_tag
+from replication.io.atomic import (
+    atomic_write_text,
+    interrupt_deferred,
+    note_written,
+    writer_gone,
+    writer_tag,
+)
 
 __all__ = [
     "PUBLISH_WAIT",
@@ -231,14 +237,21 @@ def data_set(data: Path, provenance: str, *, stale: Iterable[str] = ()) -> Itera
         staged = sorted(p.relative_to(staging) for p in staging.rglob("*") if p.is_file())
         if Path(provenance) not in staged:
             raise ValueError(f"the staged data set has no provenance {provenance}")
-        with _publishing(data), interrupt_deferred():
-            old = {p.relative_to(data) for pattern in stale for p in data.glob(pattern) if p.is_file()}
-            (data / provenance).unlink(missing_ok=True)
-            for name in sorted(old - set(staged)):
-                (data / name).unlink(missing_ok=True)
-            for name in staged:
-                if name != Path(provenance):
-                    _publish(staging / name, data / name)
-            _publish(staging / provenance, data / provenance)
+        published = False
+        try:
+            with _publishing(data), interrupt_deferred():
+                old = {p.relative_to(data) for pattern in stale for p in data.glob(pattern) if p.is_file()}
+                (data / provenance).unlink(missing_ok=True)
+                for name in sorted(old - set(staged)):
+                    (data / name).unlink(missing_ok=True)
+                for name in staged:
+                    if name != Path(provenance):
+                        _publish(staging / name, data / name)
+                _publish(staging / provenance, data / provenance)
+                published = True
+        except KeyboardInterrupt as exc:  # held while publishing, raised once the set was whole
+            if published:
+                note_written(exc, [data / name for name in staged])
+            raise
     finally:
         shutil.rmtree(staging, ignore_errors=True)
