@@ -135,6 +135,12 @@ def _qhull(points: np.ndarray, axes: tuple[int, int]):
     group, first = group_positions(points[:, axes[0]], points[:, axes[1]])
     if first.shape[0] < 3:
         raise _too_few_or_collinear(points, axes)
+    # Qhull decides among co-circular points by the order it is given them: give it the
+    # positions in lexicographic order (u, then v), so the triangles depend on the point set
+    # alone, as the sweep's do, and not on the order of the cloud's rows
+    order = np.lexsort((points[first, axes[1]], points[first, axes[0]]))
+    first = first[order]
+    group = np.argsort(order)[group]
     uv = points[first][:, list(axes)]
     local = _scipy(uv)
     counts = np.bincount(local.ravel(), minlength=first.shape[0])
