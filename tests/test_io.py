@@ -1006,3 +1006,42 @@ def test_booleans_and_times_are_not_coordinates(tmp_path, values, match):
         adt(values)
     with pytest.raises(InputError, match=match):
         adt(values.tolist() if values.dtype.kind == "b" else values)
+
+
+def test_a_failed_vtk_writer_is_one_line_with_its_reason_and_prints_nothing(surface, tmp_path, capfd):
+    """A full disk made VTK print a 12-line pipeline dump (with colour codes) before 'VTK could
+    not write out.vtp', which did not say why."""
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
+
+    from replication.io.vtk import _vtk_write
+
+    writer = vtkXMLPolyDataWriter()
+    writer.SetInputData(surface.to_polydata())
+    with pytest.raises(OutputError) as caught:  # a real failure of VTK: its directory is missing
+        _vtk_write(writer, tmp_path / "gone" / "s.vtp", "s.vtp")
+    assert str(caught.value).startswith("VTK could not write s.vtp: ") and "\n" not in str(caught.value)
+    assert capfd.readouterr().err == ""  # neither VTK's logger nor its output window printed
+
+
+@pytest.mark.parametrize(
+    ("code", "reason"),
+    [
+        (28, "No space left on device"),
+        (27, "File too large"),
+        (20007, "out of disk space"),
+        (20002, "cannot open file"),
+        (0, "the first message"),
+    ],  # fmt: skip
+)
+def test_vtk_writer_failures_in_words(code, reason):
+    from replication.io.vtk import _write_failure
+
+    assert _write_failure(code, ["the first message", "another"]) == reason
+
+
+def test_the_vtk_verbosity_is_restored_after_a_write(surface, tmp_path):
+    from vtkmodules.vtkCommonCore import vtkLogger
+
+    before = vtkLogger.GetCurrentVerbosityCutoff()
+    write_vtp(surface, tmp_path / "s.vtp")
+    assert vtkLogger.GetCurrentVerbosityCutoff() == before

@@ -72,3 +72,32 @@ def test_errors(patch, tmp_path):
         write_nurbs(patch, tmp_path / "n.igs")
     with pytest.raises(InputError, match="'iges'"):
         write_nurbs(patch, tmp_path / "n.smesh", "iges")
+
+
+def test_a_full_disk_under_geomdl_s_json_writer_is_our_one_line_error(patch, tmp_path, monkeypatch):
+    """geomdl wraps the system's error in a GeomdlException naming the temporary file: the
+    command printed 'unexpected GeomdlException' with a name the user never gave."""
+    import errno
+
+    import geomdl._exchange
+
+    from replication.errors import OutputError
+
+    class FullDisk:
+        def __init__(self, name, mode):
+            pass
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+        def write(self, text):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(geomdl._exchange, "open", FullDisk, raising=False)  # geomdl's own writer opens it
+    target = tmp_path / "s.json"
+    with pytest.raises(OutputError, match=rf"^cannot write {target}: No space left on device$"):
+        write_nurbs(patch, target)
+    assert list(tmp_path.iterdir()) == []  # no temporary left

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from replication.errors import CloudFileError, InputError
+from replication.errors import CloudFileError, InputError, OutputError
 from replication.io.atomic import atomic_path, atomic_write_text
 from replication.io.vtk import format_number, shortest_decimals
 from replication.surfaces.nurbs import NurbsPatch
@@ -70,9 +70,15 @@ def write_nurbs(patch: NurbsPatch, path: str | os.PathLike[str], fmt: str | None
     if nurbs_format(path, fmt) == "smesh":
         return atomic_write_text(path, smesh_text(patch))
     from geomdl import exchange
+    from geomdl.exceptions import GeomdlException
 
     with atomic_path(path) as tmp:
-        exchange.export_json(patch.to_geomdl(), str(tmp))
+        try:
+            exchange.export_json(patch.to_geomdl(), str(tmp))
+        except GeomdlException as exc:  # geomdl's own writer wraps the system's error (a full disk)
+            cause = exc.__cause__ or exc.__context__
+            reason = cause.strerror if isinstance(cause, OSError) and cause.strerror else str(exc)
+            raise OutputError(f"cannot write {path}: {reason}") from exc
         size = tmp.stat().st_size
     return size
 

@@ -170,9 +170,26 @@ def _vtk_can_name(path: Path) -> bool:
 
 
 def _vtk_write(writer: object, target: Path, path: str | os.PathLike[str]) -> None:
+    """Write with VTK, its messages silenced; a failure is one line with VTK's first reason."""
     writer.SetFileName(str(target))  # type: ignore[attr-defined]
-    if writer.Write() != 1:  # type: ignore[attr-defined]
-        raise OutputError(f"VTK could not write {path}")
+    with _vtk_messages() as messages:
+        done = writer.Write()  # type: ignore[attr-defined]
+    if done != 1:
+        raise OutputError(f"VTK could not write {path}: {_write_failure(writer.GetErrorCode(), messages)}")  # type: ignore[attr-defined]
+
+
+def _write_failure(code: int, messages: list[str]) -> str:
+    """Why a VTK writer failed: its error code (an errno below VTK's own codes), else its message."""
+    import re
+
+    from vtkmodules.vtkCommonMisc import vtkErrorCode
+
+    if 0 < code < vtkErrorCode.FirstVTKErrorCode:  # VTK passes the system's errno on
+        return os.strerror(code)
+    if code:  # "OutOfDiskSpaceError" -> "out of disk space"
+        name = vtkErrorCode.GetStringFromErrorCode(code).removesuffix("Error")
+        return re.sub(r"(?<!^)(?=[A-Z])", " ", name).lower()
+    return messages[0] if messages else "no reason given"
 
 
 def surface_format(path: str | os.PathLike[str], fmt: str | None = None) -> SurfaceFormat:
@@ -203,19 +220,18 @@ def _vtk_messages() -> Iterator[list[str]]:
     Without this a malformed file makes VTK print several coloured log lines (and
     multi-line pipeline dumps) on stderr before the one-line error this package reports.
     """
-    from vtkmodules.vtkCommonCore import vtkOutputWindow, vtkStringOutputWindow
+    from vtkmodules.vtkCommonCore import vtkLogger, vtkOutputWindow, vtkStringOutputWindow
 
     previous = vtkOutputWindow.GetInstance()
     window = vtkStringOutputWindow()
     vtkOutputWindow.SetInstance(window)
+    cutoff = vtkLogger.GetCurrentVerbosityCutoff()
     messages: list[str] = []
     try:
-        import pyvista as pv
-
-        quiet = pv.vtk_verbosity("off") if hasattr(pv, "vtk_verbosity") else contextlib.nullcontext()
-        with quiet:
-            yield messages
+        vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_OFF)  # what pyvista.vtk_verbosity("off") does
+        yield messages
     finally:
+        vtkLogger.SetStderrVerbosity(cutoff)
         vtkOutputWindow.SetInstance(previous)
         text = window.GetOutput()
         if isinstance(text, bytes):  # not UTF-8: VTK quotes the bytes of a file that is not text
