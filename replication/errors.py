@@ -10,6 +10,8 @@ exit status) can catch one type. Errors about the caller's data or parameters ar
 
 from __future__ import annotations
 
+import errno
+
 __all__ = [
     "CheckpointError",
     "CloudFileError",
@@ -26,6 +28,7 @@ __all__ = [
     "SolverUnavailableError",
     "UsageError",
     "escaped",
+    "no_room",
     "shortened",
     "shown",
 ]
@@ -73,6 +76,22 @@ class DegenerateInputError(InputError):
 
 class OutputError(ReplicationError, OSError):
     """A result that cannot be written (for example a missing output directory)."""
+
+
+#: System errors of a write that every later write to the same place would meet too.
+_NO_ROOM = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EFBIG})
+
+
+def no_room(exc: BaseException) -> bool:
+    """Whether ``exc`` says results cannot be written at all: an :class:`OutputError`, or a
+    system error of a full disk, a quota, a read-only file system or a file-size limit.
+
+    Work that records a failure and carries on (an evaluation of the GA, a simulation of a
+    study) must stop on such an error instead: every later result would fail the same way,
+    and a failure recorded for it (the GA's worst fitness, a failed simulation in a report)
+    would stand for the surface, not for the disk.
+    """
+    return isinstance(exc, OutputError) or (isinstance(exc, OSError) and exc.errno in _NO_ROOM)
 
 
 class SolverUnavailableError(ReplicationError):

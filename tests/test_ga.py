@@ -265,6 +265,45 @@ def test_failed_evaluations_are_recorded_and_get_the_worst_fitness(tmp_path):
     assert sum(h["failures"] for h in run.history) == len(run.failures)
 
 
+class FullDiskFitness:
+    """The real fitness, until the file ``full`` exists: then the disk is full."""
+
+    def __init__(self, config, full):
+        self.inner, self.full = Fitness(config), str(full)
+
+    def __call__(self, genome):
+        import errno
+        import os
+
+        if os.path.exists(self.full):
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return self.inner(genome)
+
+
+@pytest.mark.parametrize("kind", ["serial", "process"])
+def test_a_full_disk_stops_the_ga_and_poisons_nothing(tmp_path, kind):
+    """An evaluation that met a full disk (an SPH fitness writing its cache) was recorded as a
+    failed individual with the worst fitness, kept in the genome cache for good."""
+    import errno
+
+    full = tmp_path / "full"
+    pool = serial if kind == "serial" else functools.partial(executor, "process", workers=2)
+
+    def fill_after_the_second(state):
+        if state.generation == 2:
+            full.touch()
+
+    with pytest.raises(OSError) as caught:
+        run_ga(SMALL, 0, run_dir=tmp_path / "run", pool_factory=pool, fitness=FullDiskFitness(SMALL, full),
+               on_generation=fill_after_the_second)  # fmt: skip
+    assert caught.value.errno == errno.ENOSPC
+    assert load_run(tmp_path / "run", 0).generation == 2 and not load_run(tmp_path / "run", 0).failures
+    full.unlink()  # room again: the resumed run is the uninterrupted one
+    resumed = run_ga(SMALL, 0, run_dir=tmp_path / "run", pool_factory=serial, resume=True,
+                     fitness=FullDiskFitness(SMALL, full))  # fmt: skip
+    _same_run(resumed, run_ga(SMALL, 0, run_dir=tmp_path / "whole", pool_factory=serial))
+
+
 @pytest.mark.slow
 def test_process_pool_gives_identical_results(tmp_path):
     a = run_ga(SMALL, 0, run_dir=tmp_path / "serial", pool_factory=serial)

@@ -236,3 +236,33 @@ def test_an_entry_published_meanwhile_by_another_command_is_used(tmp_path, monke
     result = score([plate(1)], tmp_path)
     assert raced and result[0].status == "ok" and result[0].result.mean_axial == 2.0
     assert list(tmp_path.rglob(".*partial*")) == []
+
+
+@pytest.mark.parametrize("failure", ["ours", "system"])
+def test_a_cache_that_cannot_be_written_stops_the_study_in_one_line(tmp_path, failure):
+    """A full disk under the SPH cache was recorded as a failed simulation of every surface, and
+    the command drew a report made of such failures and exited 0."""
+    import errno
+
+    from replication.errors import OutputError
+
+    def full_disk(points, triangles, config, settings, *, timeout, run_dir):
+        if points[:, 2].max() < 2:  # the first plate is simulated; the disk is full from the next
+            return fake_sph(points, triangles, config, settings, timeout=timeout, run_dir=run_dir)
+        if failure == "ours":
+            raise OutputError(f"cannot write {run_dir}/solid.obj: No space left on device")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    with pytest.raises(OutputError, match=r"^cannot simulate into the SPH cache .*No space left on device; "
+                       r"the simulations finished before are kept there"):  # fmt: skip
+        tasks = [plate(1), plate(2), plate(3)]
+        score_surfaces(tasks, SETTINGS, jet=JET, cache_dir=tmp_path, simulate=full_disk)
+    assert score([plate(1)], tmp_path, simulate_missing=False)[0].status == "ok"  # kept: no rerun needed
+
+
+def test_other_system_errors_of_a_task_are_recorded_as_its_failure(tmp_path):
+    def refused(points, triangles, config, settings, *, timeout, run_dir):
+        raise PermissionError(13, "Permission denied")
+
+    scored = score_surfaces([plate(1)], SETTINGS, jet=JET, cache_dir=tmp_path, simulate=refused)
+    assert scored[0].status == "error" and "Permission denied" in scored[0].reason

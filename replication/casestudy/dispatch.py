@@ -46,7 +46,7 @@ import numpy as np
 
 from replication.casestudy.interrupts import caused_by_interrupt
 from replication.cpus import usable_cpus
-from replication.errors import InputError
+from replication.errors import InputError, no_room
 
 __all__ = ["Batching", "Dispatcher", "Outcome", "evaluate_chunk", "worker_count"]
 
@@ -110,7 +110,8 @@ def evaluate_chunk(
 
     An evaluation that raises or returns a non-finite value is a result with an error
     message, not a failed task, unless a :class:`KeyboardInterrupt` caused it (then the
-    interrupt propagates, see :mod:`.interrupts`).
+    interrupt propagates, see :mod:`.interrupts`) or it says that no result can be written
+    (:func:`replication.errors.no_room`: a full disk propagates too).
     """
     rows: list[tuple[float | None, str | None, float]] = []
     for genome in genomes:
@@ -118,7 +119,7 @@ def evaluate_chunk(
         try:
             value = fitness(genome)
         except Exception as exc:  # an evaluation failure is data, not a crash...
-            if caused_by_interrupt(exc):  # ...unless Ctrl-C caused it
+            if caused_by_interrupt(exc) or no_room(exc):  # ...unless Ctrl-C caused it, or a full disk
                 raise
             rows.append((None, f"{type(exc).__name__}: {exc}", time.perf_counter() - started))
             continue
@@ -333,6 +334,8 @@ class Dispatcher:
         except Exception as exc:  # the task failed as a whole...
             if interrupted() or caused_by_interrupt(exc):  # ...because of Ctrl-C
                 raise KeyboardInterrupt from exc
+            if no_room(exc):  # ...or no result can be written (errors.no_room): stop, record nothing
+                raise
             if len(chunk) > 1:  # find the evaluation at fault: one by one
                 singles.extend(chunk)
             else:

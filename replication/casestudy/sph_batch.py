@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from replication.casestudy.jetconfig import JetConfig
-from replication.errors import InputError, SimulationError
+from replication.errors import InputError, OutputError, SimulationError, no_room
 
 __all__ = [
     "CACHE_FORMAT",
@@ -318,7 +318,12 @@ def _run(todo, jet, settings, cache_dir, timeout, simulate, executor, max_parall
         task = todo[key]
         try:
             result = future.result()
-        except Exception as exc:  # the task failed (not the simulation): record, carry on
+        except Exception as exc:  # the task failed (not the simulation): record, carry on...
+            if no_room(exc):  # ...unless the cache cannot take any simulation (a full disk)
+                raise OutputError(
+                    f"cannot simulate into the SPH cache {cache_dir}: {exc}; the simulations finished "
+                    "before are kept there: make room and run the command again"
+                ) from exc
             record(Scored(task.name, key, "error", f"{type(exc).__name__}: {exc}", None, False, None))
             return
         path = entry_path(cache_dir, key)
