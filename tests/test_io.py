@@ -329,7 +329,8 @@ def test_a_header_naming_the_axes_says_which_column_is_which(tmp_path, header):
     (tmp_path / "labels.csv").write_text(
         "east,north,height\n" + "".join(f"{x},{y},{z}\n" for x, y, z in CLOUD)
     )
-    np.testing.assert_array_equal(load_cloud(tmp_path / "labels.csv"), CLOUD)  # other names: file order
+    with pytest.warns(CloudFileWarning, match=r"the header east, north, height names none of the axes"):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "labels.csv"), CLOUD)  # other names: file order
 
 
 def test_a_csv_header_is_read_with_csv_quoting(tmp_path):
@@ -374,9 +375,35 @@ def test_more_headers_naming_the_axes_say_which_column_is_which(tmp_path, name, 
     with pytest.warns(CloudFileWarning, match=r"x, y and z were read from columns 2, 3 and 1"):
         np.testing.assert_array_equal(load_cloud(tmp_path / name), CLOUD)
     # not recognised, as before: a comment with other words, or names whose axis is not their last part
-    for other in ("# Z X Y units mm", "pos_z_mm,pos_x_mm,pos_y_mm", "posz,posx,posy"):
-        (tmp_path / "other.csv").write_text(f"{other}\n" + "".join(f"{x},{y},{z}\n" for x, y, z in CLOUD))
-        np.testing.assert_array_equal(load_cloud(tmp_path / "other.csv"), CLOUD)
+    rows = "".join(f"{x},{y},{z}\n" for x, y, z in CLOUD)
+    (tmp_path / "comment.csv").write_text("# Z X Y units mm\n" + rows)
+    np.testing.assert_array_equal(load_cloud(tmp_path / "comment.csv"), CLOUD)  # a comment: nothing said
+    for other in ("pos_z_mm,pos_x_mm,pos_y_mm", "posz,posx,posy"):  # a header: file order, and it says so
+        (tmp_path / "other.csv").write_text(f"{other}\n" + rows)
+        with pytest.warns(CloudFileWarning, match=r"names none of the axes x, y and z, so its columns"):
+            np.testing.assert_array_equal(load_cloud(tmp_path / "other.csv"), CLOUD)
+
+
+@pytest.mark.parametrize("header", ["py,px,pz", "lat,lon,alt", "yval xval zval"])
+def test_a_header_naming_no_axis_says_the_columns_were_read_in_file_order(tmp_path, header):
+    """Such a header was skipped without a word: 'py,px,pz' over y, x, z columns gave another
+    cloud than the same points in a .npy, silently."""
+    from replication.errors import CloudFileWarning
+
+    sep = "," if "," in header else " "
+    (tmp_path / "c.csv").write_text(f"{header}\n" + "".join(f"{x}{sep}{y}{sep}{z}\n" for x, y, z in CLOUD))
+    said = r"names none of the axes x, y and z, so its columns were read in file order as x, y and z"
+    with pytest.warns(CloudFileWarning, match=said):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "c.csv"), CLOUD)
+
+
+@pytest.mark.parametrize("header", ["x,y,z,i", "x,y", "east north height intensity"])
+def test_a_header_naming_other_than_three_columns_is_refused(tmp_path, header):
+    """'x,y,z,i' over three columns was read as x, y, z without a word."""
+    sep = "," if "," in header else " "
+    (tmp_path / "c.csv").write_text(f"{header}\n" + "".join(f"{x}{sep}{y}{sep}{z}\n" for x, y, z in CLOUD))
+    with pytest.raises(CloudFileError, match=r"c\.csv: the header .* names \d columns, but a point cloud"):
+        load_cloud(tmp_path / "c.csv")
 
 
 def test_quoted_numbers_are_a_malformed_data_line_not_a_header(tmp_path):

@@ -4,7 +4,10 @@ Text files hold three numeric columns (x, y, z) separated by commas or white spa
 optional header line and optional ``#`` comments (a whole line, or the end of one). A header
 that names the axes (``z,x,y``, ``X [mm],Y [mm],Z [mm]``, ``pos_z,pos_x,pos_y``, ``z;x;y``, or
 two of them: ``depth,x,y``; a leading ``%`` is not a name) says which column is which; a header
-naming none, or each in its own column, is a label. A comma-separated header is read with CSV
+naming each in its own column is a label; one naming none (``east,north,height``, ``py,px,pz``)
+is read in file order with a :class:`~replication.errors.CloudFileWarning` saying so (which
+name is which axis would be a guess), and a header of other than three names is refused.
+A comma-separated header is read with CSV
 quoting (``"z, mm","x, mm","y, mm"`` names z, x, y). A comment line just above the data that
 names all three axes, as ``numpy.savetxt(..., header="y x z")`` writes it (``# y x z``), is
 such a header too (a comment with other words, ``# Z X Y units mm``, is a comment).
@@ -165,8 +168,21 @@ def _load_text(path: Path) -> np.ndarray:
         numbered = numbered[1:]
         if not numbered:
             raise CloudFileError(f"{path}: the file has a header but no data lines")
+        if len(first_tokens) != 3:  # "x,y,z,i" over three columns: which three does it name?
+            raise CloudFileError(
+                f"{path}: the header {_names(first_tokens)} names {len(first_tokens)} columns, but a "
+                "point cloud has 3 (x, y, z): name the file's three columns, or give no header"
+            )
         named = _header_order(path, first_tokens) or [0, 1, 2]
         labels = not any(_axis_name(t) in ("x", "y", "z") for t in first_tokens)
+        if labels and commented is None:  # ("py,px,pz" or "lat,lon,alt": which axis is which is a guess)
+            warnings.warn(
+                f"{path}: the header {_names(first_tokens)} names none of the axes x, y and z, so its "
+                "columns were read in file order as x, y and z; name them x, y and z (in any order) "
+                "to say otherwise",
+                CloudFileWarning,
+                stacklevel=3,
+            )
         if commented is None or not labels:  # a label header (east,north,height) leaves the comment's order
             if commented is not None and named != order:
                 raise CloudFileError(
