@@ -227,6 +227,36 @@ def test_ctrl_c_held_while_the_data_are_moved_into_place_says_they_were_saved(ca
     assert hint == ["replication", "report", "--output-dir", "out"] and main(hint[1:]) == 0
 
 
+@pytest.mark.slow
+def test_the_printed_resume_works_however_soon_the_command_is_killed(tmp_path):
+    """The resume line came about a second before config.json was written: a command killed in
+    that window (SIGKILL, a lost machine) left a hint that answered "nothing to resume"."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    command = [sys.executable, "-m", "replication", "casestudy", *TINY_ARGS, "--output-dir", "out",
+               "--run-dir", "run"]  # fmt: skip
+    process = subprocess.Popen(command, cwd=tmp_path, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                               text=True, start_new_session=True)  # fmt: skip
+    try:
+        line = process.stderr.readline()
+        os.killpg(process.pid, signal.SIGKILL)  # at once, once the hint is out
+    finally:
+        process.kill()
+        process.communicate()
+    assert line.startswith("GA run directory: run (after an interruption, resume with: "), line
+    hint = shlex.split(line.split("resume with: ", 1)[1].rstrip().removesuffix(")"))
+    previous = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        assert main(hint[1:]) == 0
+    finally:
+        os.chdir(previous)
+    assert json.loads((tmp_path / "run" / "run-0.json").read_text())["generation"] == 3
+
+
 def test_ctrl_c_while_table1_is_drawn_says_the_data_are_saved(capsys, tmp_path, monkeypatch):
     def ctrl_c(out, workers=1):
         raise KeyboardInterrupt

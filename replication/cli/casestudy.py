@@ -247,13 +247,11 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
 def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
     """Run the case study as planned; save its data and render the report into ``plan.out``."""
     from replication.casestudy.evaluate import executor
-    from replication.casestudy.rundir import hold
+    from replication.casestudy.rundir import hold, write_config
     from replication.experiments.casestudy import run_casestudy
     from replication.report.casestudy import render_casestudy, save_casestudy_data
 
     config = plan.config
-    action = "resuming" if plan.resume else "after an interruption, resume with"
-    print(f"GA run directory: {plan.run_dir} ({action}: {plan.hint})", file=sys.stderr)
     on_interrupt = say_simulations_finish if plan.sph is not None else None  # SPH takes minutes
     pool = functools.partial(
         executor, args.executor, workers=args.workers, scheduler=args.scheduler, on_interrupt=on_interrupt
@@ -262,6 +260,11 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
     # a second command on this directory is refused here, outside the try: its refusal removes nothing
     with hold(plan.run_dir):
         try:
+            # the configuration first, then the hint: a command killed right after printing it
+            # left no config.json, and the printed --resume answered "nothing to resume"
+            write_config(plan.run_dir, config)
+            action = "resuming" if plan.resume else "after an interruption, resume with"
+            print(f"GA run directory: {plan.run_dir} ({action}: {plan.hint})", file=sys.stderr)
             write_fitness_record(plan.run_dir, plan.solver)
             with Progress(
                 config.runs * config.generations, "GA generations", initial=plan.done_generations
