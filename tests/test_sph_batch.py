@@ -266,3 +266,24 @@ def test_other_system_errors_of_a_task_are_recorded_as_its_failure(tmp_path):
 
     scored = score_surfaces([plate(1)], SETTINGS, jet=JET, cache_dir=tmp_path, simulate=refused)
     assert scored[0].status == "error" and "Permission denied" in scored[0].reason
+
+
+def test_scratch_directories_of_killed_simulations_are_removed_by_the_next_run(tmp_path):
+    """A simulation killed outright (SIGKILL) left its scratch directory in the cache for good."""
+    import os
+    import subprocess
+    import sys
+
+    from replication.io.atomic import writer_tag
+
+    ended = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True)
+    dead_tag = writer_tag().replace(str(os.getpid()), ended.stdout.decode().strip(), 1)
+    key = "ab" + "0" * 62
+    abandoned = tmp_path / "ab" / f".{key}{sph_batch.PARTIAL}{dead_tag}1234abcd"
+    running = tmp_path / "ab" / f".{key}{sph_batch.PARTIAL}{writer_tag()}5678abcd"  # this process: alive
+    foreign = tmp_path / "cd" / f".{'cd' + '0' * 62}{sph_batch.PARTIAL}1.otherhost-9abc"  # another machine
+    for path in (abandoned, running, foreign):
+        (path / "engine").mkdir(parents=True)
+        (path / "engine" / "state.bin").write_bytes(b"x" * 100)
+    assert score([plate(1)], tmp_path)[0].status == "ok"
+    assert not abandoned.exists() and running.exists() and foreign.exists()

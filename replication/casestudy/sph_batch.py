@@ -39,6 +39,7 @@ import numpy as np
 
 from replication.casestudy.jetconfig import JetConfig
 from replication.errors import InputError, OutputError, SimulationError, no_room
+from replication.io.atomic import writer_gone, writer_tag
 
 __all__ = [
     "CACHE_FORMAT",
@@ -177,6 +178,19 @@ def read_entry(cache_dir: str | os.PathLike[str], key: str) -> Any:
         return None
 
 
+#: Between a cache key and the writer's tag in the name of a simulation's scratch directory.
+PARTIAL = ".partial-"
+
+
+def _remove_abandoned_scratch(cache_dir: Path) -> None:
+    """Remove the scratch directories of simulations whose process has ended: a simulation
+    killed outright (SIGKILL, a lost machine) cannot remove its own, and the cache kept them
+    for good. Another machine's, or a running process's, are kept."""
+    for path in cache_dir.glob(f"??/.*{PARTIAL}*"):
+        if writer_gone(path.name.split(PARTIAL, 1)[1]):
+            shutil.rmtree(path, ignore_errors=True)
+
+
 def _simulate_into_cache(
     task: SurfaceTask,
     jet: JetConfig,
@@ -192,7 +206,7 @@ def _simulate_into_cache(
     simulate = simulate or sph_force
     final = entry_path(cache_dir, key)
     final.parent.mkdir(parents=True, exist_ok=True)
-    scratch = final.parent / f".{key}.partial-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+    scratch = final.parent / f".{key}{PARTIAL}{writer_tag()}{uuid.uuid4().hex[:8]}"
     try:
         result = simulate(task.points, task.triangles, jet, settings, timeout=timeout, run_dir=scratch)
         surface = {"name": task.name, "points": task.points.tolist(), "triangles": task.triangles.tolist()}
@@ -306,6 +320,7 @@ def score_surfaces(
             record(Scored(task.name, key, "missing", "not in the SPH cache", None, False, None))
     if todo:
         cache_dir.mkdir(parents=True, exist_ok=True)
+        _remove_abandoned_scratch(cache_dir)
         _run(todo, jet, settings, cache_dir, timeout, simulate, executor, max_parallel, record)
     return [dataclasses.replace(done[key], name=task.name) for task, key in zip(tasks, keys)]
 

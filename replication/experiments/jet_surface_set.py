@@ -16,7 +16,6 @@ import functools
 import hashlib
 import json
 import math
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -77,7 +76,9 @@ def build_surfaces(
     if config.ga is not None and config.ga_top > 0:
         pool_factory = pool_factory or functools.partial(executor, "serial")
         if ga_run_dir is None:
-            with tempfile.TemporaryDirectory(prefix="replication-ga-") as tmp:
+            from replication.io.scratch import scratch_directory
+
+            with scratch_directory("replication-ga-") as tmp:
                 surfaces += ga_winners(config.ga, config.ga_top, run_dir=tmp, pool_factory=pool_factory)
         else:
             surfaces += ga_winners(config.ga, config.ga_top, run_dir=ga_run_dir, pool_factory=pool_factory)

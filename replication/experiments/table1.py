@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import contextlib
 import math
-import tempfile
 import time
 import warnings
 from collections.abc import Callable, Iterable, Iterator
@@ -60,6 +59,7 @@ from replication.experiments.storage import (
 from replication.experiments.table1_claims import table1_claims
 from replication.experiments.timing import interleaved, ratio_per_repeat, summarize
 from replication.io.nurbs import smesh_text, write_nurbs
+from replication.io.scratch import scratch_directory
 from replication.io.vtk import legacy_vtk_text, write_vtk, write_vtp
 from replication.provenance import provenance
 from replication.surfaces import Box, adt, random_cloud
@@ -599,7 +599,7 @@ def run_table1(
     progress = progress or _no_progress
     started = time.perf_counter()
     stage_seconds = {}
-    with warnings.catch_warnings(), tempfile.TemporaryDirectory(prefix="table1-") as tmp:
+    with warnings.catch_warnings(), scratch_directory("replication-table1-") as tmp:
         # lattice clouds share (x, y) nodes: the merges are recorded in the data instead
         warnings.simplefilter("ignore", DuplicatePointsWarning)
         workdir = Path(tmp)

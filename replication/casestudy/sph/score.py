@@ -13,8 +13,6 @@ import dataclasses
 import hashlib
 import importlib.util
 import json
-import shutil
-import tempfile
 from collections.abc import Callable
 from importlib import metadata
 from pathlib import Path
@@ -249,11 +247,10 @@ def _directory(run_dir: str | Path | None):
         path.mkdir(parents=True, exist_ok=True)
         yield path
         return
-    path = Path(tempfile.mkdtemp(prefix="replication-sph-"))
-    try:
+    from replication.io.scratch import scratch_directory
+
+    with scratch_directory("replication-sph-") as path:
         yield path
-    finally:
-        shutil.rmtree(path, ignore_errors=True)
 
 
 def surface_sph_force(
