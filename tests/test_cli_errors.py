@@ -521,7 +521,8 @@ def test_underflowing_coordinates_are_named(capsys, tmp_path):
     assert code == 1 and one_line(err, "adt") and "collinear" in err and "unexpected" not in err
     np.save(tmp_path / "line.npy", np.column_stack([np.arange(4.0), np.zeros(4), np.ones(4)]))
     code, _, err = run(capsys, "adt", tmp_path / "line.npy", "--depth", "z")
-    assert code == 1 and one_line(err, "adt") and "collinear" in err and "underflow" not in err
+    said = err.split("line.npy: ", 1)[-1]  # (the file's path holds this test's name)
+    assert code == 1 and one_line(err, "adt") and "collinear" in said and "underflow" not in said
 
 
 def test_an_ambiguous_first_line_0_1_2_is_one_line(capsys, tmp_path):
@@ -796,3 +797,23 @@ def test_a_closed_standard_output_loses_nothing(capsys, tmp_path, monkeypatch):
     monkeypatch.setattr(sys, "stdout", None)
     assert main(["adt", "--random", "20", "--seed", "1", "-o", str(tmp_path / "s.vtk")]) == 0
     assert (tmp_path / "s.vtk").is_file() and sys.stdout is None
+
+
+@pytest.mark.parametrize(
+    ("command", "content"),
+    [
+        ("adt", "x,y,z\n1,2,3\n4,5,6\n"),
+        ("nurbs", "x,y,z\n1,2,3\n4,5,6\n"),
+        ("adt", "x,y,z\n0,0,1\n1,1,2\n2,2,3\n"),
+    ],  # fmt: skip
+)
+def test_an_error_about_the_data_of_a_file_names_the_file(command, content, tmp_path, capsys, monkeypatch):
+    """'need at least 3 distinct projected points, got 2' did not say which file had two."""
+    from replication.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "pts.csv").write_text(content)
+    assert main([command, "pts.csv"]) == 1
+    err = capsys.readouterr().err
+    named = err.startswith(f"replication {command}: error: pts.csv: ")
+    assert named and err.count("\n") == 1, err

@@ -1072,3 +1072,14 @@ def test_the_vtk_verbosity_is_restored_after_a_write(surface, tmp_path):
     before = vtkLogger.GetCurrentVerbosityCutoff()
     write_vtp(surface, tmp_path / "s.vtp")
     assert vtkLogger.GetCurrentVerbosityCutoff() == before
+
+
+@pytest.mark.parametrize("token", ["1e400", "-2.5E+309", "9" * 400])
+def test_a_number_too_large_for_float64_is_named(tmp_path, token):
+    """'1e400' was reported as 'NaN or infinite coordinates on 1 line(s): 3', quoting nothing."""
+    (tmp_path / "c.csv").write_text(f"x,y,z\n1,2,3\n4,{token},6\n7,8,9\n")
+    with pytest.raises(CloudFileError, match=r"c\.csv: line 3, column 2: '[-0-9.eE+]+(\.\.\.9+)?' is too"):
+        load_cloud(tmp_path / "c.csv")
+    (tmp_path / "n.txt").write_text("1 2 3\n4 inf 6\n7 8 nan\n")  # written as such: as before
+    with pytest.raises(CloudFileError, match=r"NaN or infinite coordinates on 2 line\(s\): 2, 3"):
+        load_cloud(tmp_path / "n.txt")

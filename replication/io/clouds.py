@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from replication.errors import CloudFileError, CloudFileWarning, InputError, shown
+from replication.errors import CloudFileError, CloudFileWarning, InputError, shortened, shown
 from replication.io.atomic import atomic_path, atomic_write_text
 from replication.io.paths import lookup
 from replication.io.vtk import shortest_decimals
@@ -59,6 +59,15 @@ def _is_float64_text(token: str) -> bool:
     """Whether numpy's text reader takes ``token`` as a number: Python's ``float`` also takes
     digit separators (``1_0``) and non-ASCII digits, which ``np.loadtxt`` refuses."""
     return token.isascii() and "_" not in token and _is_number(token)
+
+
+def _overflows(token: str) -> bool:
+    """Whether ``token`` is a finite number too large for float64 ("1e400"), not "inf" or "nan"."""
+    try:
+        value = float(token)
+    except ValueError:
+        return False
+    return not math.isfinite(value) and not any(word in token.lower() for word in ("inf", "nan"))
 
 
 def _split(line: str, comma: bool) -> list[str]:
@@ -204,6 +213,14 @@ def _load_text(path: Path) -> np.ndarray:
         raise _diagnose(path, numbered, comma)
     bad = np.flatnonzero(~np.isfinite(data).all(axis=1))
     if bad.size:
+        for i in bad:  # a number too large for float64 ("1e400") reads as infinite: name it
+            for column, token in enumerate(_split(numbered[i][1], comma), start=1):
+                word = token.strip().strip("\"'")
+                if _overflows(word):
+                    raise CloudFileError(
+                        f"{path}: line {numbered[i][0]}, column {column}: {shortened(word)!r} is too large "
+                        f"for a float64 coordinate (at most about 1.8e308 in absolute value)"
+                    )
         shown_lines = shown(numbered[i][0] for i in bad)
         raise CloudFileError(f"{path}: NaN or infinite coordinates on {bad.size} line(s): {shown_lines}")
     if order is None or order == [0, 1, 2]:
