@@ -296,6 +296,33 @@ def test_ctrl_c_held_while_table1_s_data_are_published_says_they_were_saved(caps
     assert last == "replication table1: interrupted after writing 1 file (out/data/table1_provenance.json)"
 
 
+@pytest.mark.parametrize("command", ["table1", "casestudy"])
+def test_an_error_while_the_report_is_drawn_says_the_data_are_saved(command, capsys, tmp_path, monkeypatch):
+    """A full disk while the figures were drawn left the new data beside the earlier run's page,
+    and the one-line error did not say so."""
+    from replication.errors import OutputError
+
+    def full_disk(out, workers=1):
+        raise OutputError(f"cannot write {out}/figures/fig.png: No space left on device")
+
+    monkeypatch.chdir(tmp_path)
+    if command == "table1":
+        monkeypatch.setattr("replication.experiments.table1.run_table1", lambda config, **kw: "results")
+        monkeypatch.setattr("replication.report.table1.save_table1_data", lambda *args: None)
+        monkeypatch.setattr("replication.report.table1.render_table1", full_disk)
+        argv = ["table1", "--quick", "--output-dir", "out"]
+    else:
+        monkeypatch.setattr("replication.report.casestudy.render_casestudy", full_disk)
+        argv = ["casestudy", *TINY_ARGS, "--output-dir", "out", "--run-dir", "r"]
+    assert main(argv) == 1
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert last == (
+        f"replication {command}: error: cannot write out/figures/fig.png: No space left on device; the new "
+        "data are saved in out/data: once that is fixed, draw the report with: "
+        "replication report --output-dir out"
+    )
+
+
 def test_ctrl_c_while_the_report_is_drawn_says_the_data_are_saved(capsys, tmp_path, monkeypatch):
     def ctrl_c(out, workers=1):
         raise KeyboardInterrupt

@@ -36,6 +36,7 @@ from replication.cli.casestudy_sph import (
 )
 from replication.cli.common import (
     directory_name,
+    drawing_saved_data,
     emit_json,
     positive_int,
     say_simulations_finish,
@@ -306,7 +307,8 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
         print(f"interrupted {said}", file=sys.stderr)
         raise
     try:
-        return results, render_casestudy(plan.out, workers=_workers(args))
+        with drawing_saved_data(plan.out):
+            return results, render_casestudy(plan.out, workers=_workers(args))
     except KeyboardInterrupt as exc:
         if not written_before(exc):  # (else it was drawn: the command's last line names its files)
             print(f"interrupted while drawing the report: its data are saved in {plan.out / 'data'}; "

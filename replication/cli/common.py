@@ -309,6 +309,24 @@ def relay_warnings() -> Iterator[list[warnings.WarningMessage]]:
 
 
 @contextlib.contextmanager
+def drawing_saved_data(out: Any) -> Iterator[None]:
+    """Around drawing a report from the data just saved into ``out/data``: an error (a full
+    disk) leaves the page and figures of an earlier run beside the new data, or some of them
+    redrawn, so its one line also says that the data are saved and how to draw the report."""
+    import shlex
+
+    from replication.errors import ReplicationError
+
+    try:
+        yield
+    except ReplicationError as exc:
+        draw = shlex.join(["replication", "report", "--output-dir", str(out)])
+        raise type(exc)(
+            f"{exc}; the new data are saved in {out}/data: once that is fixed, draw the report with: {draw}"
+        ) from exc
+
+
+@contextlib.contextmanager
 def say_when_publishing_waits() -> Iterator[None]:
     """Print a line when saving report data waits for another command's save into the same
     directory (it was silent: a save stopped with Ctrl-Z held the other without a word)."""

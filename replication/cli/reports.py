@@ -14,6 +14,7 @@ from typing import Any
 from replication.cli.casestudy import plan_casestudy, run_and_report
 from replication.cli.common import (
     directory_name,
+    drawing_saved_data,
     file_name,
     positive_int,
     say_when_publishing_waits,
@@ -58,7 +59,8 @@ def _run_table1(out: Path, quick: bool, command: str, workers: int | None = None
                   file=sys.stderr)  # fmt: skip
         raise
     try:
-        return render_table1(out, workers=workers)
+        with drawing_saved_data(out):
+            return render_table1(out, workers=workers)
     except KeyboardInterrupt as exc:  # minutes of experiment are saved: say so, and how to draw them
         if not written_before(exc):  # (else it was drawn: the command's last line names its files)
             print(f"interrupted while drawing the report: its data are saved in {out / 'data'}; "

@@ -10,7 +10,13 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from replication.cli.common import directory_name, emit_json, say_when_publishing_waits, worker_count
+from replication.cli.common import (
+    directory_name,
+    drawing_saved_data,
+    emit_json,
+    say_when_publishing_waits,
+    worker_count,
+)
 
 SOLVERS = ("sheet", "sph")
 #: The SPH options of ``replication force`` (dest names); they need --solver sph.
@@ -311,7 +317,8 @@ def run_sph_report(out: Path, quick: bool, command: str, workers: int | None = N
             )
     with say_when_publishing_waits():
         save_sph_data(results, out)
-    return render_sph(out)
+    with drawing_saved_data(out):
+        return render_sph(out)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
