@@ -125,7 +125,6 @@ def test_bad_input_one_line_error_and_no_output(capsys, tmp_path, content, match
             "output directory does not exist",
         ),
         (["adt", "--random", "5", "-o", "s.stl"], "suffix"),
-        (["adt", "--random", "50", "--split", "q=1"], "split"),
     ],
 )
 def test_usage_problems_exit_1(capsys, tmp_path, monkeypatch, argv, match):
@@ -142,6 +141,7 @@ def test_usage_problems_exit_1(capsys, tmp_path, monkeypatch, argv, match):
         (["adt", "--seed", "1", "x.csv"], "--seed applies only with --random"),
         (["adt", "x.csv", "--random", "4"], "not both"),
         (["adt", "--random", "5", "--box", "1", "0", "0", "1", "0", "1"], "--box 1 0 0 1 0 1: box has xmin"),
+        (["adt", "--random", "50", "--split", "q=1"], "--split: split plane 'q=1'"),  # exited 1
     ],
 )
 def test_options_that_do_not_go_together_exit_2(capsys, tmp_path, monkeypatch, argv, match):

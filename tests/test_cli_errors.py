@@ -817,3 +817,19 @@ def test_an_error_about_the_data_of_a_file_names_the_file(command, content, tmp_
     err = capsys.readouterr().err
     named = err.startswith(f"replication {command}: error: pts.csv: ")
     assert named and err.count("\n") == 1, err
+
+
+@pytest.mark.parametrize(
+    ("argv", "said"),
+    [
+        (["adt", "--random", "20", "--split", "z=abc"], "--split: split plane must look like"),  # was exit 1
+        (["adt", "--random", "20", "--format", "vtk"], "--format vtk applies only with -o"),  # was ignored
+        (["nurbs", "--random", "20", "--format", "json"], "--format json applies only with -o"),
+    ],  # fmt: skip
+)
+def test_misused_options_are_usage_errors_before_any_work(argv, said, capsys):
+    from replication.cli import main
+
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert said in err and err.count("\n") == 1 and f"(see 'replication {argv[0]} --help')" in err, err

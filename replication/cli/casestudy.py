@@ -391,7 +391,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="continue the runs checkpointed in --run-dir, with the settings recorded there",
     )
     p.add_argument(
-        "--executor", choices=EXECUTORS, default="auto", help="where fitness is evaluated (default auto)"
+        "--executor",
+        choices=EXECUTORS,
+        default="auto",
+        help="where fitness is evaluated (default auto: a dask cluster at --scheduler if given, "
+        "else a process pool when more than one worker is asked for or available, else serial)",
     )
     p.add_argument("--workers", type=worker_count, help="process-pool or local dask workers (default: CPUs)")
     p.add_argument(

@@ -62,8 +62,16 @@ JSON exchange format.
 """
 
 
-def _cmd_adt(args: argparse.Namespace) -> int:
+def _check_format_has_output(args: argparse.Namespace) -> None:
+    """``--format`` without ``-o`` was accepted and did nothing, as --seed without --random is refused."""
     from replication.errors import UsageError
+
+    if args.format is not None and args.output is None:
+        raise UsageError(f"--format {args.format} applies only with -o OUT (a file to write)")
+
+
+def _cmd_adt(args: argparse.Namespace) -> int:
+    from replication.errors import InputError, UsageError
     from replication.io import surface_format, write_surface
     from replication.surfaces import AXES, adt, closed_adt, parse_split
 
@@ -72,6 +80,13 @@ def _cmd_adt(args: argparse.Namespace) -> int:
             f"--depth {args.depth} does not apply with --split: each half is a height field over "
             "the split plane, whose normal is the depth axis"
         )
+    split = None
+    if args.split:  # a malformed plane is a misused option (exit 2), found before any work
+        try:
+            split = parse_split(args.split)
+        except InputError as exc:
+            raise UsageError(f"--split: {exc}") from exc
+    _check_format_has_output(args)
     fmt = surface_format(args.output, args.format) if args.output else args.format
     check_outputs(args)
     suffix_warning(args.output, args.format, SURFACE_KINDS)
@@ -79,10 +94,8 @@ def _cmd_adt(args: argparse.Namespace) -> int:
         cloud, source, meta = load_or_generate(args)
         startup_s = warm_up("adt", args)
         start = time.perf_counter()
-        if args.split:
-            closed = closed_adt(
-                cloud, parse_split(args.split), duplicates=args.duplicates, backend=args.backend
-            )
+        if split is not None:
+            closed = closed_adt(cloud, split, duplicates=args.duplicates, backend=args.backend)
             mesh: Any = closed
             halves = (closed.upper, closed.lower)
             info: dict[str, Any] = {
@@ -166,6 +179,7 @@ def _cmd_nurbs(args: argparse.Namespace) -> int:
     from replication.io.nurbs import nurbs_format, write_nurbs
     from replication.surfaces.nurbs import fit_nurbs
 
+    _check_format_has_output(args)
     fmt = nurbs_format(args.output, args.format) if args.output else args.format
     check_outputs(args)
     suffix_warning(args.output, args.format, NURBS_KINDS)
@@ -300,7 +314,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                 "--evaluator",
                 choices=("geomdl", "fast"),
                 default="geomdl",
-                help="evaluate the tessellation with geomdl (reference) or scipy (fast)",
+                help="evaluate the tessellation with geomdl (the reference, default) or scipy (fast)",
             )
         else:
             p.add_argument(
