@@ -833,3 +833,13 @@ def test_misused_options_are_usage_errors_before_any_work(argv, said, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert said in err and err.count("\n") == 1 and f"(see 'replication {argv[0]} --help')" in err, err
+
+
+def test_a_readme_that_is_a_device_is_not_called_a_directory(capsys, tmp_path, monkeypatch):
+    from replication.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "reports" / "data").mkdir(parents=True)
+    assert main(["report", "--readme", "/dev/null"]) == 1
+    err = capsys.readouterr().err
+    assert "--readme /dev/null is a device, FIFO or socket, not a README file" in err, err

@@ -126,7 +126,8 @@ def _check_readme(readme: str, out: Path) -> Path:
     if not path.exists():
         raise InputError(f"--readme {path}: no such file")
     if not path.is_file():
-        raise InputError(f"--readme {path} is a directory, not a README file")
+        kind = "a directory" if path.is_dir() else "a device, FIFO or socket"
+        raise InputError(f"--readme {path} is {kind}, not a README file")
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
