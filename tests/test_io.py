@@ -397,10 +397,11 @@ def test_a_header_naming_no_axis_says_the_columns_were_read_in_file_order(tmp_pa
         np.testing.assert_array_equal(load_cloud(tmp_path / "c.csv"), CLOUD)
 
 
-@pytest.mark.parametrize("header", ["x,y,z,i", "x,y", "east north height intensity"])
+@pytest.mark.parametrize("header", ["x,y,z,i", "x,y", "east\tnorth\theight\tintensity"])
 def test_a_header_naming_other_than_three_columns_is_refused(tmp_path, header):
-    """'x,y,z,i' over three columns was read as x, y, z without a word."""
-    sep = "," if "," in header else " "
+    """'x,y,z,i' over three columns was read as x, y, z without a word. (Names separated by
+    spaces are not counted: they may hold spaces themselves.)"""
+    sep = "," if "," in header else "\t"
     (tmp_path / "c.csv").write_text(f"{header}\n" + "".join(f"{x}{sep}{y}{sep}{z}\n" for x, y, z in CLOUD))
     with pytest.raises(CloudFileError, match=r"c\.csv: the header .* names \d columns, but a point cloud"):
         load_cloud(tmp_path / "c.csv")
@@ -1083,3 +1084,26 @@ def test_a_number_too_large_for_float64_is_named(tmp_path, token):
     (tmp_path / "n.txt").write_text("1 2 3\n4 inf 6\n7 8 nan\n")  # written as such: as before
     with pytest.raises(CloudFileError, match=r"NaN or infinite coordinates on 2 line\(s\): 2, 3"):
         load_cloud(tmp_path / "n.txt")
+
+
+@pytest.mark.parametrize(
+    ("header", "sep", "warned"),
+    [
+        ("Easting m\tNorthing m\tHeight m", "\t", "Easting m, Northing m, Height m"),  # names holding spaces
+        ("point x\tpoint y\tpoint z", "\t", "point x, point y, point z"),
+        ("x,y,z,", ",", None),
+    ],  # a separator at the end names no fourth column  # fmt: skip
+)
+def test_headers_of_three_columns_that_split_oddly_still_load(tmp_path, header, sep, warned):
+    """Review: counting the names of a tab-separated header at every space refused these files."""
+    import warnings
+
+    from replication.errors import CloudFileWarning
+
+    (tmp_path / "c.txt").write_text(f"{header}\n" + "".join(f"{x}{sep}{y}{sep}{z}\n" for x, y, z in CLOUD))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", CloudFileWarning)
+        np.testing.assert_array_equal(load_cloud(tmp_path / "c.txt"), CLOUD)
+    said = [str(w.message) for w in caught]
+    expected = [] if warned is None else [f"the header {warned} names none"]
+    assert len(said) == len(expected) and all(text in said[0] for text in expected)

@@ -337,7 +337,7 @@ def _run(todo, jet, settings, cache_dir, timeout, simulate, executor, max_parall
             if no_room(exc):  # ...unless the cache cannot take any simulation (a full disk)
                 raise OutputError(
                     f"cannot simulate into the SPH cache {cache_dir}: {exc}; the simulations finished "
-                    "before are kept there: make room and run the command again"
+                    "before are kept there: once it can take more, run the command again"
                 ) from exc
             record(Scored(task.name, key, "error", f"{type(exc).__name__}: {exc}", None, False, None))
             return

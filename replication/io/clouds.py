@@ -6,7 +6,8 @@ that names the axes (``z,x,y``, ``X [mm],Y [mm],Z [mm]``, ``pos_z,pos_x,pos_y``,
 two of them: ``depth,x,y``; a leading ``%`` is not a name) says which column is which; a header
 naming each in its own column is a label; one naming none (``east,north,height``, ``py,px,pz``)
 is read in file order with a :class:`~replication.errors.CloudFileWarning` saying so (which
-name is which axis would be a guess), and a header of other than three names is refused.
+name is which axis would be a guess), and a header of other than three names separated by
+commas or tabs is refused (names separated by spaces may hold spaces, and are not counted).
 A comma-separated header is read with CSV
 quoting (``"z, mm","x, mm","y, mm"`` names z, x, y). A comment line just above the data that
 names all three axes, as ``numpy.savetxt(..., header="y x z")`` writes it (``# y x z``), is
@@ -59,6 +60,19 @@ def _is_float64_text(token: str) -> bool:
     """Whether numpy's text reader takes ``token`` as a number: Python's ``float`` also takes
     digit separators (``1_0``) and non-ASCII digits, which ``np.loadtxt`` refuses."""
     return token.isascii() and "_" not in token and _is_number(token)
+
+
+def _header_count(line: str) -> int | None:
+    """How many columns a header line names, when its separator says so: commas (with CSV
+    quoting) or tabs; None for names separated by spaces, which may hold spaces themselves
+    (``x [mm]``). A separator at the end of the line ("x,y,z,") names no further column."""
+    for sep in (",", "\t"):
+        if sep in line:
+            names = next(csv.reader([line], delimiter=sep))
+            while names and not names[-1].strip():
+                names.pop()
+            return len(names)
+    return None
 
 
 def _overflows(token: str) -> bool:
@@ -123,8 +137,8 @@ def _header_tokens(text: str) -> list[str]:
 
     A comma-separated header is read with CSV quoting, as pandas writes it: ``"z, mm","x, mm",
     "y, mm"`` names three columns, not six (split at every comma, it was taken for a label and
-    the columns read in file order). Without a comma, ``;`` separates the names when there is
-    one (``# z;y;x``). A leading ``%`` (a MATLAB/Octave comment sign) is not a name.
+    the columns read in file order). Without a comma, a tab separates the names when there is
+    one, else ``;`` (``# z;y;x``). A leading ``%`` (a MATLAB/Octave comment sign) is not a name.
     """
     text = text.strip().removeprefix("%")
     if "," in text:
@@ -133,6 +147,8 @@ def _header_tokens(text: str) -> list[str]:
         except csv.Error:  # unbalanced quotes: the names between the commas, quotes and all
             return _split(text, True)
     bare = _UNIT.sub("", text)  # a ';' inside a unit ('z [m; NAP]') separates nothing
+    if "\t" in bare:  # tabs separate names that may hold spaces ("Easting m<TAB>Northing m")
+        return [name.strip() for name in bare.split("\t") if name.strip()]
     if ";" in bare:
         return [name.strip() for name in bare.split(";")]
     return bare.split()
@@ -174,13 +190,15 @@ def _load_text(path: Path) -> np.ndarray:
         # a header line: names, no numeric token (a malformed data line such as "1;2;3" has no
         # letter, and is reported as line 1, not taken for a header and line 2 blamed)
         first_tokens = _header_tokens(numbered[0][1])
+        numbered_header = numbered[0][1]
         numbered = numbered[1:]
         if not numbered:
             raise CloudFileError(f"{path}: the file has a header but no data lines")
-        if len(first_tokens) != 3:  # "x,y,z,i" over three columns: which three does it name?
+        counted = _header_count(numbered_header)
+        if counted is not None and counted != 3:  # "x,y,z,i" over three columns: which three?
             raise CloudFileError(
-                f"{path}: the header {_names(first_tokens)} names {len(first_tokens)} columns, but a "
-                "point cloud has 3 (x, y, z): name the file's three columns, or give no header"
+                f"{path}: the header {_names(first_tokens)} names {counted} columns, but a point cloud "
+                "has 3 (x, y, z): name the file's three columns, or give no header"
             )
         named = _header_order(path, first_tokens) or [0, 1, 2]
         labels = not any(_axis_name(t) in ("x", "y", "z") for t in first_tokens)

@@ -77,8 +77,9 @@ def write_nurbs(patch: NurbsPatch, path: str | os.PathLike[str], fmt: str | None
             exchange.export_json(patch.to_geomdl(), str(tmp))
         except GeomdlException as exc:  # geomdl's own writer wraps the system's error (a full disk)
             cause = exc.__cause__ or exc.__context__
-            reason = cause.strerror if isinstance(cause, OSError) and cause.strerror else str(exc)
-            raise OutputError(f"cannot write {path}: {reason}") from exc
+            if not isinstance(cause, OSError):  # any other error it wraps too: not a write's, raise it
+                raise
+            raise OutputError(f"cannot write {path}: {cause.strerror or cause}") from exc
         size = tmp.stat().st_size
     return size
 
