@@ -843,3 +843,23 @@ def test_a_readme_that_is_a_device_is_not_called_a_directory(capsys, tmp_path, m
     assert main(["report", "--readme", "/dev/null"]) == 1
     err = capsys.readouterr().err
     assert "--readme /dev/null is a device, FIFO or socket, not a README file" in err, err
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["adt", "ok.csv", "-o", "out.xyz"],
+        ["nurbs", "ok.csv", "-o", "out.xyz"],
+        ["adt", "ok.csv", "--save-cloud", "x.foo"],
+    ],  # fmt: skip
+)
+def test_an_error_about_an_option_is_not_blamed_on_the_input_file(argv, tmp_path, capsys, monkeypatch):
+    """Review: the input's name was put before every error, 'ok.csv: cannot tell the surface
+    format from out.xyz' among them."""
+    from replication.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "ok.csv").write_text("x,y,z\n1,2,3\n2,3,4\n5,1,2\n6,6,6\n")
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"replication {argv[0]}: error: ") and "ok.csv" not in err, err

@@ -328,7 +328,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{name}: error: {escaped(str(exc))} (see '{name} --help')", file=sys.stderr)
         return 2
     except ReplicationError as exc:
-        print(f"{name}: error: {escaped(_naming_the_input(args, exc))}", file=sys.stderr)
+        print(f"{name}: error: {escaped(str(exc))}", file=sys.stderr)
         return 1
     except KeyboardInterrupt as exc:
         return _stopped(name, exc)
@@ -346,23 +346,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     finally:
         sys.stdout = stdout
-
-
-def _naming_the_input(args: argparse.Namespace, exc: ReplicationError) -> str:
-    """The message of ``exc``, after the name of the command's input file when it is about the
-    data and does not name the file itself ("need at least 3 distinct projected points" came
-    without the name of the file that had two)."""
-    from pathlib import Path
-
-    from replication.errors import CloudFileError, InputError
-
-    text = str(exc)
-    source = getattr(args, "input", None)
-    if not source or not isinstance(exc, InputError) or isinstance(exc, CloudFileError):
-        return text  # (a file's own errors name it, shortened when its name is long)
-    if Path(source).name in text:
-        return text
-    return f"{shortened(source)}: {text}"
 
 
 def _stopped(name: str, exc: BaseException | None = None) -> int:

@@ -16,6 +16,7 @@ from replication.cpus import usable_cpus
 from replication.errors import DuplicatePointsWarning, InputError, UsageError, escaped
 
 __all__ = [
+    "about_the_input",
     "add_cloud_source",
     "add_frame_options",
     "directory_name",
@@ -306,6 +307,25 @@ def relay_warnings() -> Iterator[list[warnings.WarningMessage]]:
             for w in caught:
                 if not issubclass(w.category, DuplicatePointsWarning):
                     print(f"warning: {escaped(str(w.message))}", file=sys.stderr)
+
+
+@contextlib.contextmanager
+def about_the_input(args: argparse.Namespace) -> Iterator[None]:
+    """Around the work on the data of the command's input file: an error about them that does
+    not name the file gets its name first ("need at least 3 distinct projected points, got 2"
+    did not say which file had two). Errors about options, raised outside the block, do not."""
+    from replication.errors import CloudFileError, shortened
+
+    try:
+        yield
+    except InputError as exc:
+        source = getattr(args, "input", None)
+        text = str(exc)
+        if source is None or isinstance(exc, (UsageError, CloudFileError)) or str(source) in text:
+            raise
+        if shortened(source) in text:
+            raise
+        raise type(exc)(f"{shortened(source)}: {text}") from exc
 
 
 @contextlib.contextmanager

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from replication.cli.common import emit_json, frame_kwargs, load_or_generate, relay_warnings
+from replication.cli.common import about_the_input, emit_json, frame_kwargs, load_or_generate, relay_warnings
 from replication.cli.files import check_outputs, save_generated_cloud, write_all_or_none
 from replication.cli.resources import check_compare_samples
 
@@ -69,15 +69,16 @@ def cmd_compare(args: argparse.Namespace) -> int:
         check_compare_samples(args.samples)
     with relay_warnings():
         cloud, source, meta = load_or_generate(args)
-        result = compare(
-            cloud,
-            degree=args.degree,
-            net=args.net,
-            sample_shape=args.samples,
-            margin_fraction=args.margin,
-            alpha=args.alpha,
-            **frame_kwargs(args),
-        )
+        with about_the_input(args):
+            result = compare(
+                cloud,
+                degree=args.degree,
+                net=args.net,
+                sample_shape=args.samples,
+                margin_fraction=args.margin,
+                alpha=args.alpha,
+                **frame_kwargs(args),
+            )
     write_all_or_none((args.save_cloud, lambda: save_generated_cloud(cloud, args, meta)))
     m_u, m_v = result.nurbs.patch.net_shape
     pairings: dict[str, Any] = {}

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from replication.cli.common import (
+    about_the_input,
     emit_json,
     finite_float,
     finite_positive,
@@ -87,7 +88,7 @@ def _cmd_force(args: argparse.Namespace) -> int:
         full_jet=args.full_jet,
         domain=domain,
     )
-    with relay_warnings():
+    with relay_warnings(), about_the_input(args):
         points, triangles, what, merged = _load(args.input)
     shared = shared_report(args, config, points, triangles, merged)
     if args.solver == "sph":
@@ -96,7 +97,8 @@ def _cmd_force(args: argparse.Namespace) -> int:
     jet_force([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], JetConfig(domain=None), resolution=1)
     with relay_warnings() as caught:  # the streamlets may be too coarse for the surface: the library says so
         start = time.perf_counter()
-        result = jet_force(points, triangles, config, resolution=args.resolution)
+        with about_the_input(args):
+            result = jet_force(points, triangles, config, resolution=args.resolution)
         seconds = time.perf_counter() - start
     if result.n_streamlets_hit == 0 and not any(issubclass(w.category, JetResolutionWarning) for w in caught):
         print(

@@ -7,6 +7,7 @@ import time
 from typing import Any
 
 from replication.cli.common import (
+    about_the_input,
     add_cloud_source,
     add_frame_options,
     emit_json,
@@ -95,7 +96,8 @@ def _cmd_adt(args: argparse.Namespace) -> int:
         startup_s = warm_up("adt", args)
         start = time.perf_counter()
         if split is not None:
-            closed = closed_adt(cloud, split, duplicates=args.duplicates, backend=args.backend)
+            with about_the_input(args):
+                closed = closed_adt(cloud, split, duplicates=args.duplicates, backend=args.backend)
             mesh: Any = closed
             halves = (closed.upper, closed.lower)
             info: dict[str, Any] = {
@@ -109,7 +111,8 @@ def _cmd_adt(args: argparse.Namespace) -> int:
                 "points_merged": sum(h.n_merged for h in halves),
             }
         else:
-            surface = adt(cloud, **frame_kwargs(args))
+            with about_the_input(args):
+                surface = adt(cloud, **frame_kwargs(args))
             mesh = surface
             halves = (surface,)
             info = {
@@ -188,14 +191,15 @@ def _cmd_nurbs(args: argparse.Namespace) -> int:
         cloud, source, meta = load_or_generate(args)
         startup_s = warm_up("nurbs", args)
         start = time.perf_counter()
-        nurbs = fit_nurbs(
-            cloud,
-            degree=args.degree,
-            net=args.net,
-            tessellation=args.tessellation,
-            evaluator=args.evaluator,
-            **frame_kwargs(args),
-        )
+        with about_the_input(args):
+            nurbs = fit_nurbs(
+                cloud,
+                degree=args.degree,
+                net=args.net,
+                tessellation=args.tessellation,
+                evaluator=args.evaluator,
+                **frame_kwargs(args),
+            )
         build_s = time.perf_counter() - start
     written, _ = write_all_or_none(
         (args.output, lambda: write_nurbs(nurbs.patch, args.output, fmt)),
