@@ -898,6 +898,53 @@ def test_a_data_set_keeps_permissions_and_links_and_removes_stale_files(tmp_path
     assert _files(data)["meshes/n9.vtk"] == b"2\n"
 
 
+_KILLED_WHILE_PUBLISHING = """
+import os, signal, sys
+from pathlib import Path
+from replication.report import store
+real, moved = store._publish, []
+def dying(source, target):
+    if len(moved) == int(sys.argv[2]):
+        os.kill(os.getpid(), signal.SIGKILL)
+    moved.append(target)
+    real(source, target)
+store._publish = dying
+with store.data_set(Path(sys.argv[1]), "e_provenance.json", stale=["e_old*.csv"]) as staged:
+    (staged / "e_a.csv").write_text("new a\\n")
+    (staged / "e_b.csv").write_text("new b\\n")
+    (staged / "e_provenance.json").write_text('{"run": "new"}\\n')
+"""
+
+
+@pytest.mark.parametrize("how", ["report", "next save"])
+@pytest.mark.parametrize("moves", [0, 1, 2])
+def test_a_save_killed_while_it_publishes_is_finished_by_the_next_command(tmp_path, moves, how):
+    """A SIGKILL between the first and the last move of a data set left a mix of the old and the
+    new files without a provenance: both sets were lost. The plan of the moves is written first,
+    and the next command that touches the data makes the moves left."""
+    import subprocess
+    import sys
+
+    from replication.report import store
+
+    data = tmp_path / "data"
+    data.mkdir()
+    old = {"e_a.csv": "old a\n", "e_b.csv": "old b\n", "e_old1.csv": "stale\n", "e_provenance.json": "{}\n"}
+    for name, text in old.items():
+        (data / name).write_text(text)
+    killed = subprocess.run([sys.executable, "-c", _KILLED_WHILE_PUBLISHING, str(data), str(moves)])
+    assert killed.returncode == -9
+    assert not (data / "e_provenance.json").exists()  # killed in the middle: no provenance
+    if how == "report":
+        store.recover_data_sets(data)
+    else:  # another data set saved into the same directory
+        with store.data_set(data, "f_provenance.json") as staged:
+            (staged / "f_provenance.json").write_text("{}\n")
+    files = {p.name: p.read_text() for p in data.iterdir() if p.name.startswith("e_")}
+    assert files == {"e_a.csv": "new a\n", "e_b.csv": "new b\n", "e_provenance.json": '{"run": "new"}\n'}
+    assert not list(data.glob(".staging-*"))
+
+
 def test_a_data_set_leaves_an_ignored_or_foreign_ctrl_c_alone(tmp_path, monkeypatch):
     # a background job ignores SIGINT: the held Ctrl-C became a KeyboardInterrupt after publishing
     import signal

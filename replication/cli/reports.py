@@ -164,6 +164,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     from replication.report.casestudy import render_casestudy
     from replication.report.index import update_readme
     from replication.report.pages import check_pages
+    from replication.report.store import recover_data_sets
     from replication.report.table1 import render_table1
 
     out = Path(args.output_dir or DEFAULT_DIR)
@@ -190,6 +191,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
     written_dirs = ("figures", "data") if results is not None else ("figures",)
     what = "--output-dir" if args.output_dir else "the reports directory"
     check_report_dir(out, what, written_dirs)
+    if (out / "data").is_dir():  # a save killed while it published its data set: finish it first
+        recover_data_sets(out / "data")
     readme = _check_readme(args.readme, out) if args.readme else None
     check_pages(out, what, _pages_drawn(out, performance=args.performance))
     # what the files were, to say which stayed as they were

@@ -194,11 +194,59 @@ def _publishing(data: Path) -> Iterator[None]:
         os.close(handle)
 
 
+#: Written into a staging directory when its data set starts to be published: the plan of the
+#: moves, so that a save killed while publishing is finished by the next one (roll forward).
+PUBLISHING = ".publishing.json"
+
+
 def _remove_abandoned_staging(data: Path) -> None:
-    """Remove staging directories of :func:`data_set` whose process no longer runs (a killed save)."""
+    """Finish or remove the staging directories of :func:`data_set` whose process no longer runs.
+
+    A save killed while it wrote its files (no plan) left the data as they were: its staging
+    directory is removed. One killed while it published them (a plan) had removed the old
+    provenance and replaced some files: its remaining moves are made, the provenance last, so
+    the data are the new set whole instead of a mix of two sets without a provenance.
+    """
     for path in data.glob(f"{STAGING}*"):
-        if writer_gone(path.name[len(STAGING) :]):
-            shutil.rmtree(path, ignore_errors=True)
+        if not path.is_dir() or path.is_symlink() or not writer_gone(path.name[len(STAGING) :]):
+            continue
+        with contextlib.suppress(OSError, ValueError, KeyError, TypeError):
+            plan = json.loads((path / PUBLISHING).read_text(encoding="utf-8"))
+            _publish_set(path, data, plan["provenance"], [Path(p) for p in plan["staged"]], plan["stale"])
+        shutil.rmtree(path, ignore_errors=True)
+
+
+def _write_plan(path: Path, plan: dict[str, Any]) -> None:
+    """Write the publishing plan into the staging directory (its own: no atomic rename needed;
+    a plan cut short is unreadable, and then no move had been made)."""
+    with open(path, "w", encoding="utf-8") as handle:
+        handle.write(json.dumps(plan) + "\n")
+        handle.flush()
+        os.fsync(handle.fileno())
+
+
+def recover_data_sets(data: str | os.PathLike[str]) -> None:
+    """Finish a data set whose save was killed while it was published (see :func:`data_set`),
+    and remove what killed saves left; for a command that reads ``data`` without saving."""
+    data = Path(data)
+    if not any(data.glob(f"{STAGING}*")):
+        return
+    with _publishing(data), interrupt_deferred():
+        _remove_abandoned_staging(data)
+
+
+def _publish_set(staging: Path, data: Path, provenance: str, staged: list[Path], stale: list[str]) -> None:
+    """The moves of a data set, each of which may have been made already (a roll forward):
+    the old provenance removed, the stale files removed, the files moved, the provenance last."""
+    if (staging / provenance).is_file():
+        (data / provenance).unlink(missing_ok=True)
+    for name in stale:
+        (data / name).unlink(missing_ok=True)
+    for name in staged:
+        if name != Path(provenance) and (staging / name).is_file():
+            _publish(staging / name, data / name)
+    if (staging / provenance).is_file():
+        _publish(staging / provenance, data / provenance)
 
 
 def _publish(source: Path, target: Path) -> None:
@@ -223,14 +271,15 @@ def data_set(data: Path, provenance: str, *, stale: Iterable[str] = ()) -> Itera
     ``data`` and the new provenance comes last, with Ctrl-C held meanwhile.
 
     A Ctrl-C or an error while the files are written leaves ``data`` as it was. A crash in the
-    short publishing step leaves the data without their provenance: ``replication report``
-    then renders nothing from them and says so. A staging directory left by a killed process
-    is removed by the next save. Two commands saving into one ``data`` at once publish one
-    after the other (an exclusive ``flock`` on the directory), so each set is whole and the
-    later one replaces the earlier whole.
+    short publishing step (a SIGKILL, a power cut) left the data without their provenance, a
+    mix of two sets; the plan of the moves is now written first, and the next save (or
+    ``replication report``, :func:`recover_data_sets`) makes the moves left, so the new set is
+    whole. A staging directory left by a save killed before it published is removed. Two
+    commands saving into one ``data`` at once publish one after the other (an exclusive
+    ``flock`` on the directory), so each set is whole and the later one replaces the earlier
+    whole.
     """
     data.mkdir(parents=True, exist_ok=True)
-    _remove_abandoned_staging(data)
     staging = Path(tempfile.mkdtemp(prefix=f"{STAGING}{writer_tag()}", dir=data))
     try:
         yield staging
@@ -240,14 +289,12 @@ def data_set(data: Path, provenance: str, *, stale: Iterable[str] = ()) -> Itera
         published = False
         try:
             with _publishing(data), interrupt_deferred():
+                _remove_abandoned_staging(data)  # (one killed while this save waited for the lock)
                 old = {p.relative_to(data) for pattern in stale for p in data.glob(pattern) if p.is_file()}
-                (data / provenance).unlink(missing_ok=True)
-                for name in sorted(old - set(staged)):
-                    (data / name).unlink(missing_ok=True)
-                for name in staged:
-                    if name != Path(provenance):
-                        _publish(staging / name, data / name)
-                _publish(staging / provenance, data / provenance)
+                removed = [str(name) for name in sorted(old - set(staged))]
+                plan = {"provenance": provenance, "staged": [str(n) for n in staged], "stale": removed}
+                _write_plan(staging / PUBLISHING, plan)  # durable before the first move
+                _publish_set(staging, data, provenance, staged, removed)
                 published = True
         except KeyboardInterrupt as exc:  # held while publishing, raised once the set was whole
             if published:
