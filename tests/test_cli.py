@@ -427,3 +427,25 @@ def test_option_values_out_of_range_exit_2(capsys, tmp_path, monkeypatch, argv, 
     err = capsys.readouterr().err
     assert exc.value.code == 2 and match in err and err.count("\n") == 1
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_files_the_help_examples_name_can_be_made_as_the_help_says(tmp_path, monkeypatch, capsys):
+    """`replication force bucket.csv` and `adt sphere.xyz --split z=0` named files that nothing
+    shipped and nothing said how to make."""
+    import shlex
+    import subprocess
+    import sys
+
+    from replication.cli.force import EPILOG_FORCE
+    from replication.cli.surfaces import EPILOG_ADT
+
+    monkeypatch.chdir(tmp_path)
+    for epilog in (EPILOG_FORCE, EPILOG_ADT):
+        (line,) = [line.strip() for line in epilog.splitlines() if line.strip().startswith("python -c ")]
+        code = shlex.split(line)[2]
+        subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path)
+    assert main(["force", "bucket.csv"]) == 0
+    assert main(["adt", "bucket.csv", "--depth", "z", "-o", "my_mesh.vtp"]) == 0
+    assert main(["force", "my_mesh.vtp", "--full-jet", "--center", "18", "0", "--json"]) == 0
+    assert main(["adt", "sphere.xyz", "--split", "z=0", "-o", "closed.vtk"]) == 0
+    assert "closed (watertight)" in capsys.readouterr().out

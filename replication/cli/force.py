@@ -28,6 +28,10 @@ examples:
   replication force bucket.csv --solver sph --particle-radius 0.75 --duration 20
       an SPH simulation with SPlisHSPlasH instead of the thin-sheet model (pip install ".[sph]")
 
+bucket.csv stands for any cloud; the case study's Pelton bucket (101 points) is written by
+  python -c "import replication as rp; from replication.casestudy.shapes import pelton_bucket_cloud; rp.save_cloud(pelton_bucket_cloud(), 'bucket.csv')"
+and a mesh such as my_mesh.vtp by `replication adt bucket.csv --depth z -o my_mesh.vtp`.
+
 The jet travels along -z onto the surface. The default model (--solver sheet) is an inviscid
 thin-sheet momentum balance (no SPH): each streamlet of the jet strikes a facet, loses its normal momentum and
 spreads over the surface at the jet speed; the sheet follows concave creases, separates at
@@ -35,7 +39,7 @@ convex ones and may strike the surface again; the force is mass flow x (velocity
 velocity out). The axial force is the component along the jet (positive when the jet pushes
 the surface along -z). With the default half jet the surface must lie in y >= 0: y = 0 is
 the symmetry (splitter) plane, as in the paper's half-domain simulation. Lengths are in mm.
-"""
+"""  # noqa: E501 - a command to copy whole
 
 
 def _load(path: str) -> tuple[Any, Any, str, int]:

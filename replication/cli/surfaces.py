@@ -42,11 +42,14 @@ examples:
   replication adt cloud.csv --json
       report the depth axis, merges and triangle count as JSON, writing nothing
 
+sphere.xyz stands for any cloud around a plane; 500 points on a 10 mm sphere are written by
+  python -c "import numpy as np, replication as rp; p = np.random.default_rng(1).normal(size=(500, 3)); rp.save_cloud(10 * p / np.linalg.norm(p, axis=1, keepdims=True), 'sphere.xyz')"
+
 The depth axis is the axis along which the surface is a height field: by default the axis of
 least spread (paper eq. 7), ties broken z first, then y (eq. 8). Points that share a position
 in the projection plane become one vertex by --duplicates (default: mean depth, with a
 warning); --duplicates raise refuses such clouds instead.
-"""
+"""  # noqa: E501 - a command to copy whole
 
 EPILOG_NURBS = """\
 examples:
