@@ -863,3 +863,46 @@ def test_an_error_about_an_option_is_not_blamed_on_the_input_file(argv, tmp_path
     assert main(argv) == 1
     err = capsys.readouterr().err
     assert err.startswith(f"replication {argv[0]}: error: ") and "ok.csv" not in err, err
+
+
+@pytest.mark.parametrize("command", ["adt", "nurbs", "compare", "force"])
+def test_an_empty_input_name_is_a_misused_command_line(command, capsys):
+    """`adt ""` exited 1 where an empty `-o ""` exits 2."""
+    from replication.cli import main
+
+    assert main([command, ""]) == 2
+    err = capsys.readouterr().err
+    assert "INPUT is empty" in err and err.count("\n") == 1, err
+
+
+def test_a_dangling_link_is_not_just_not_found(tmp_path, capsys, monkeypatch):
+    from replication.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "dead.csv").symlink_to("gone.csv")
+    (tmp_path / "a.csv").symlink_to("b.csv")
+    (tmp_path / "b.csv").symlink_to("a.csv")
+    (tmp_path / "loop.vtp").symlink_to("a.csv")
+    assert main(["adt", "dead.csv"]) == 1
+    assert "dead.csv (a symbolic link to gone.csv, which does not exist)" in capsys.readouterr().err
+    assert main(["adt", "a.csv"]) == 1
+    assert "a.csv (a loop of symbolic links)" in capsys.readouterr().err
+    assert main(["force", "loop.vtp"]) == 1
+    assert "surface file not found: loop.vtp (a loop of symbolic links)" in capsys.readouterr().err
+    assert main(["adt", "absent.csv"]) == 1
+    assert capsys.readouterr().err.rstrip().endswith("point-cloud file not found: absent.csv")
+
+
+@pytest.mark.parametrize(
+    ("shape", "said"), [("points", "10 vertex cell(s)"), ("quads", "4 polygon(s) of 4 corners")]
+)
+def test_a_mesh_of_other_cells_says_what_it_holds(shape, said, tmp_path, capsys):
+    import pyvista as pv
+
+    from replication.cli import main
+
+    mesh = pv.PolyData(np.random.default_rng(0).random((10, 3))) if shape == "points" else pv.Plane(
+        i_resolution=2, j_resolution=2)  # fmt: skip
+    mesh.save(tmp_path / "m.vtp")
+    assert main(["force", str(tmp_path / "m.vtp")]) == 1
+    assert f"the surface must consist of triangles only; it holds {said}" in capsys.readouterr().err

@@ -249,6 +249,8 @@ def load_or_generate(args: argparse.Namespace) -> tuple[np.ndarray, str, dict[st
     if args.random is None:
         if args.input is None:
             raise UsageError("give a point-cloud file INPUT, or --random N for a generated cloud")
+        if not str(args.input):  # as an empty -o is: a misused command line
+            raise UsageError("INPUT is empty: give the name of a point-cloud file")
         for flag in ("seed", "box", "step", "save_cloud"):
             if getattr(args, flag) is not None:
                 raise UsageError(f"--{flag.replace('_', '-')} applies only with --random")

@@ -73,6 +73,8 @@ def _cmd_force(args: argparse.Namespace) -> int:
     from replication.errors import JetResolutionWarning, UsageError
 
     check_force_options(args)
+    if not str(args.input):  # as an empty -o is: a misused command line
+        raise UsageError("INPUT is empty: give the name of a point-cloud or surface file")
     if args.no_domain and args.domain is not None:
         raise UsageError("give either --domain or --no-domain, not both")
     # the values themselves are checked by their options, in the millimetres given (JetConfig's

@@ -35,7 +35,7 @@ import numpy as np
 
 from replication.errors import CloudFileError, CloudFileWarning, InputError, shortened, shown
 from replication.io.atomic import atomic_path, atomic_write_text
-from replication.io.paths import lookup
+from replication.io.paths import dangling, lookup
 from replication.io.vtk import shortest_decimals
 from replication.surfaces.cloud import as_cloud
 
@@ -385,7 +385,7 @@ def load_cloud(path: str | os.PathLike[str]) -> np.ndarray:
     path = Path(path)
     found = lookup(path, CloudFileError, "cannot read the point-cloud file")
     if not found.exists:
-        raise CloudFileError(f"point-cloud file not found: {path}")
+        raise CloudFileError(f"point-cloud file not found: {path}{dangling(path)}")
     if found.is_dir:
         raise CloudFileError(f"expected a point-cloud file, got a directory: {path}")
     suffix = path.suffix.lower()

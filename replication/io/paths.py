@@ -26,6 +26,7 @@ __all__ = [
     "check_report_dir",
     "check_utf8_path",
     "check_writable_dir",
+    "dangling",
     "lookup",
     "same_file",
 ]
@@ -72,6 +73,20 @@ def lookup(path: str | os.PathLike[str], error: Callable[[str], Exception], what
         if exc.errno in _ABSENT:
             return Found.of(None)
         raise error(f"{what} {shortened(path)}: {exc.strerror or exc}") from exc
+
+
+def dangling(path: str | os.PathLike[str]) -> str:
+    """For a "not found" message: that ``path`` is a symbolic link to nothing (its target is
+    missing, or the links loop), which "not found" alone hides; else nothing."""
+    try:
+        link = os.path.islink(path)
+    except (OSError, ValueError):
+        return ""
+    if not link:
+        return ""
+    if _looped(Path(path)):
+        return " (a loop of symbolic links)"
+    return f" (a symbolic link to {shortened(os.readlink(path))}, which does not exist)"
 
 
 def _identity(path: Path) -> tuple[int, int] | None:

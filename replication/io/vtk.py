@@ -15,13 +15,13 @@ import shutil
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Literal, Protocol
+from typing import Any, Literal, Protocol
 
 import numpy as np
 
 from replication.errors import CloudFileError, InputError, OutputError, escaped, shortened
 from replication.io.atomic import atomic_path, atomic_write_text
-from replication.io.paths import lookup
+from replication.io.paths import dangling, lookup
 
 __all__ = [
     "SURFACE_FORMATS",
@@ -243,6 +243,21 @@ def _vtk_messages() -> Iterator[list[str]]:
                 messages.append(shortened(escaped(lines[1].split("): ", 1)[-1]), head=100, tail=40))
 
 
+def _cells(mesh: Any) -> str:
+    """What a mesh that is not all triangles holds, in words ("10 vertex cell(s) (points, not faces)")."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    kinds = []
+    for count, kind in ((mesh.n_verts, "vertex cell(s) (points, not faces)"), (mesh.n_lines, "line(s)"),
+                        (mesh.n_strips, "triangle strip(s)")):  # fmt: skip
+        if count:
+            kinds.append(f"{count} {kind}")
+    sizes = np.bincount(np.diff(vtk_to_numpy(mesh.GetPolys().GetOffsetsArray())).astype(np.int64))
+    kinds += [f"{c} triangle(s)" if n == 3 else f"{c} polygon(s) of {n} corners"
+              for n, c in enumerate(sizes) if c]  # fmt: skip
+    return ", ".join(kinds) or "no faces"
+
+
 def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
     """Read a triangle surface (``.vtk`` or ``.vtp``) with VTK; return (points, triangles).
 
@@ -264,7 +279,7 @@ def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
     if found.is_dir:
         raise CloudFileError(f"expected a surface file, got a directory: {path}")
     if not found.is_file:
-        raise CloudFileError(f"surface file not found: {path}")
+        raise CloudFileError(f"surface file not found: {path}{dangling(path)}")
     reader = vtkPolyDataReader() if surface_format(path) == "vtk" else vtkXMLPolyDataReader()
     with contextlib.ExitStack() as stack:
         source = path
@@ -285,7 +300,7 @@ def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
     if mesh.n_cells == 0:
         raise CloudFileError(f"{path}: points but no triangles in the file (is it cut short?){why}")
     if not mesh.is_all_triangles:
-        raise CloudFileError(f"{path}: the surface must consist of triangles only")
+        raise CloudFileError(f"{path}: the surface must consist of triangles only; it holds {_cells(mesh)}")
     points = np.asarray(mesh.points, dtype=np.float64)
     triangles = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 4)[:, 1:]
     return points, triangles
