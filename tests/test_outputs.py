@@ -239,9 +239,12 @@ def test_an_output_name_ending_in_a_slash_is_refused_before_any_work(
 
 
 def test_the_writers_refuse_a_name_ending_in_a_slash(tmp_path):
+    (tmp_path / "c.csv").write_text("old\n")
     with pytest.raises(OutputError, match="c.csv is not a directory"):
         save_cloud(np.zeros((3, 3)), f"{tmp_path}/c.csv/")
-    assert list(tmp_path.iterdir()) == []
+    with pytest.raises(OutputError, match=r"new.csv does not exist \(a name ending in '/' names a directory"):
+        save_cloud(np.zeros((3, 3)), f"{tmp_path}/new.csv/")  # was: "new.csv is not a directory"
+    assert [p.name for p in tmp_path.iterdir()] == ["c.csv"]
 
 
 @pytest.mark.parametrize(

@@ -56,9 +56,10 @@ def check_output_path(path: str | os.PathLike[str]) -> Path:
     given = Path(path)
     try:
         if _directory_name(os.fspath(path)) and not given.is_dir():
+            what = "is not a directory" if given.exists() else "does not exist"
             raise OutputError(
-                f"cannot write {os.fsdecode(path)}: {given} is not a directory (a name ending in '/' "
-                "names one; drop the '/' to write the file)"
+                f"cannot write {os.fsdecode(path)}: {given} {what} (a name ending in '/' names a "
+                "directory; drop the '/' to write the file)"
             )
         return _check_output_path(given)
     except OutputError:
