@@ -181,3 +181,38 @@ def test_a_failed_simulation_s_reason_is_text_not_damage(tmp_path, report, table
     write_csv(frame, path)
     loaded = _loaders()[report](tmp_path)
     assert loaded[table].loc[0, reason] == "particles left the domain at t = 3.1 ms"
+
+
+@pytest.mark.parametrize(
+    ("table", "damage", "said"),
+    [("storage", "delete", "n = 9 lacks the row of coordinates = "),
+     ("montecarlo", "duplicate", "the row of n = 9, quantity = adt_bytes is there twice"),
+     ("sizes", ",ADT,->,xADT,", "n = 9 lacks the row of method = ADT, format = legacy VTK, 6 significant"),
+     ("stats", "9,->9.5,", "n = 9.5 is not one of the run's sizes [9, 45, 100, 169, 200]"),
+     ("clouds", "duplicate", "the row of n = 9 is there twice"),
+     ("timings_raw", "keep n=9 only", "no rows for n = 45")],
+)  # fmt: skip
+def test_a_table1_table_that_is_not_whole_is_refused_saying_what_it_lacks(tmp_path, table, damage, said):
+    """A row deleted from a table was drawn as missing without a word; a changed method name
+    gave 'IndexError: single positional indexer is out-of-bounds'. (The Monte Carlo summary may
+    lack a quantity at a size where it is never computable: only strays and repeats are refused.)"""
+    from replication.report.table1 import load_table1_data
+
+    data = tmp_path / "data"
+    ignored = shutil.ignore_patterns("*meshes*", "performance*")
+    shutil.copytree(ROOT / "reports" / "data", data, ignore=ignored)
+    path = data / f"table1_{table}.csv"
+    lines = path.read_text().splitlines(keepends=True)
+    if damage == "delete":
+        del lines[2]
+    elif damage == "duplicate":
+        lines.insert(2, lines[1])
+    elif damage == "keep n=9 only":
+        lines = [lines[0]] + [line for line in lines[1:] if line.startswith("9,")]
+    else:
+        old, new = damage.split("->")
+        lines[2] = lines[2].replace(old, new, 1) if not old.startswith("9,") else new + lines[1][len(old) :]
+    path.write_text("".join(lines))
+    with pytest.raises(ReportDataError) as caught:
+        load_table1_data(tmp_path)
+    assert str(caught.value).startswith(f"{path}: {said}"), str(caught.value)

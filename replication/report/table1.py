@@ -76,14 +76,77 @@ def save_table1_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
     return data
 
 
+#: The tables with a row for each size n of the run and each combination of these columns
+#: (the same combinations for every n, except in :data:`RAGGED`).
+GRIDS = {
+    "montecarlo": ("quantity",),
+    "sizes": ("method", "format"),
+    "stats": ("pairing",),
+    "storage": ("coordinates", "family"),
+    "timings": ("quantity",),
+    "clouds": (),
+    "montecarlo_raw": ("replicate",),
+    "timings_raw": ("repeat", "task"),
+    "storage_raw": ("replicate", "coordinates"),
+}
+#: Tables whose rows may differ between sizes: a Monte Carlo quantity that is never computable
+#: at a size (no finite value, as in a quick run's smallest clouds) has no row there.
+RAGGED = frozenset({"montecarlo"})
+
+
 def load_table1_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
-    """The saved tables (DataFrames) and provenance of a Table 1 run."""
+    """The saved tables (DataFrames) and provenance of a Table 1 run.
+
+    Raises
+    ------
+    ReportDataError
+        A table that is not whole: a size n that is not the run's or has no rows, a row
+        twice, or a row that the other sizes have and one lacks (a deleted or edited line).
+    """
     data = Path(out_dir) / "data"
     loaded: dict[str, Any] = {
         name: read_csv(data / f"table1_{name}.csv", strings=TEXT_COLUMNS) for name in TABLES
     }
     loaded["provenance"] = read_json(data / "table1_provenance.json")
+    ns = [int(n) for n in loaded["provenance"].get("config", {}).get("ns", [])]
+    if ns:
+        for name, keys in GRIDS.items():
+            _check_grid(loaded[name], data / f"table1_{name}.csv", ns, keys, complete=name not in RAGGED)
     return loaded
+
+
+def _check_grid(
+    frame: pd.DataFrame, path: Path, ns: list[int], keys: tuple[str, ...], *, complete: bool = True
+) -> None:
+    """Refuse a table that is not a row for each n of ``ns`` and each combination of ``keys``
+    (a row deleted from the storage table was drawn as missing, without a word); with
+    ``complete=False`` the combinations may differ between sizes, but a size and a row must
+    still be the run's and there once."""
+    from replication.errors import ReportDataError
+
+    damaged = "the data are damaged; regenerate them with `replication table1`"
+    sizes = set(frame["n"].tolist())
+    stray = sorted(n for n in sizes if n not in ns)
+    if stray:
+        raise ReportDataError(f"{path}: n = {stray[0]:g} is not one of the run's sizes {ns}: {damaged}")
+    absent = [n for n in ns if n not in sizes]
+    if absent:
+        raise ReportDataError(f"{path}: no rows for n = {absent[0]}: {damaged}")
+    twice = frame.duplicated(["n", *keys])
+    if twice.any():
+        row = frame[twice].iloc[0]
+        named = ", ".join(f"{k} = {row[k]}" for k in ("n", *keys))
+        raise ReportDataError(f"{path}: the row of {named} is there twice: {damaged}")
+    if not keys or not complete:
+        return
+    rows = {n: set(map(tuple, group[list(keys)].astype(str).to_numpy())) for n, group in frame.groupby("n")}
+    every = set().union(*rows.values())
+    for n in ns:
+        lacking = sorted(every - rows[n])
+        if lacking:
+            named = ", ".join(f"{k} = {v}" for k, v in zip(keys, lacking[0]))
+            said = f"n = {n} lacks the row of {named} that other sizes have"
+            raise ReportDataError(f"{path}: {said}; {damaged}")
 
 
 def _q(frame: pd.DataFrame, n: int, quantity: str) -> pd.Series:
