@@ -281,7 +281,7 @@ def _only(out, experiment):
         ("casestudy_provenance.json", "{bad", "malformed JSON"),
         ("casestudy_provenance.json", "{}", "casestudy data under"),
         ("table1_provenance.json", "[1]", "expected a JSON object"),
-        ("table1_montecarlo.csv", "n,quantity\n9,x\n", "table1 data under"),
+        ("table1_montecarlo.csv", "n,quantity\n9,x\n", "table1_montecarlo.csv: no rows for n = "),
     ],
 )
 def test_report_with_corrupt_data(capsys, quick_reports, tmp_path, name, content, match):
