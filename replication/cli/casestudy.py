@@ -36,6 +36,7 @@ from replication.cli.casestudy_sph import (
 )
 from replication.cli.common import (
     directory_name,
+    draw_command,
     drawing_saved_data,
     emit_json,
     positive_int,
@@ -292,7 +293,7 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
         except BaseException:
             remove_unused_run_dir(plan.run_dir, plan.created)
             raise
-    command = shlex.join(["replication", "report", "--output-dir", str(plan.out)])
+    command = draw_command(plan.out)
     try:
         with say_when_publishing_waits():
             save_casestudy_data(results, plan.out)

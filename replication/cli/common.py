@@ -20,6 +20,7 @@ __all__ = [
     "add_cloud_source",
     "add_frame_options",
     "directory_name",
+    "draw_command",
     "emit_json",
     "file_name",
     "finite_float",
@@ -323,11 +324,17 @@ def about_the_input(args: argparse.Namespace) -> Iterator[None]:
     except InputError as exc:
         source = getattr(args, "input", None)
         text = str(exc)
-        if source is None or isinstance(exc, (UsageError, CloudFileError)) or str(source) in text:
-            raise
-        if shortened(source) in text:
+        named = source is not None and (str(source) in text or shortened(source) in text)
+        if source is None or named or isinstance(exc, (UsageError, CloudFileError)):
             raise
         raise type(exc)(f"{shortened(source)}: {text}") from exc
+
+
+def draw_command(out: Any) -> str:
+    """The command that draws the reports in ``out`` from their saved data."""
+    import shlex
+
+    return shlex.join(["replication", "report", "--output-dir", str(out)])
 
 
 @contextlib.contextmanager
@@ -335,14 +342,12 @@ def drawing_saved_data(out: Any) -> Iterator[None]:
     """Around drawing a report from the data just saved into ``out/data``: an error (a full
     disk) leaves the page and figures of an earlier run beside the new data, or some of them
     redrawn, so its one line also says that the data are saved and how to draw the report."""
-    import shlex
-
     from replication.errors import ReplicationError
 
     try:
         yield
     except ReplicationError as exc:
-        draw = shlex.join(["replication", "report", "--output-dir", str(out)])
+        draw = draw_command(out)
         raise type(exc)(
             f"{exc}; the new data are saved in {out}/data: once that is fixed, draw the report with: {draw}"
         ) from exc

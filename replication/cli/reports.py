@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import functools
-import shlex
 import sys
 import time
 from collections.abc import Callable
@@ -14,6 +13,7 @@ from typing import Any
 from replication.cli.casestudy import plan_casestudy, run_and_report
 from replication.cli.common import (
     directory_name,
+    draw_command,
     drawing_saved_data,
     file_name,
     positive_int,
@@ -49,7 +49,7 @@ def _run_table1(out: Path, quick: bool, command: str, workers: int | None = None
     config = Table1Config.quick_config() if quick else Table1Config()
     workers = workers or usable_cpus()
     results = run_table1(config, progress=progress_bar, command=command, workers=workers)
-    draw = shlex.join(["replication", "report", "--output-dir", str(out)])
+    draw = draw_command(out)
     try:
         with say_when_publishing_waits():
             save_table1_data(results, out)
