@@ -195,7 +195,7 @@ def test_a_failed_simulation_s_reason_is_text_not_damage(tmp_path, report, table
 def test_a_table1_table_that_is_not_whole_is_refused_saying_what_it_lacks(tmp_path, table, damage, said):
     """A row deleted from a table was drawn as missing without a word; a changed method name
     gave 'IndexError: single positional indexer is out-of-bounds'. (The Monte Carlo summary may
-    lack a quantity at a size where it is never computable: only strays and repeats are refused.)"""
+    lack a quantity at a size where it is never computable: see the next test.)"""
     from replication.report.table1 import load_table1_data
 
     data = tmp_path / "data"
@@ -216,3 +216,38 @@ def test_a_table1_table_that_is_not_whole_is_refused_saying_what_it_lacks(tmp_pa
     with pytest.raises(ReportDataError) as caught:
         load_table1_data(tmp_path)
     assert str(caught.value).startswith(f"{path}: {said}"), str(caught.value)
+
+
+@pytest.mark.parametrize(
+    ("damage", "said"),
+    [("delete", "lacks the row of n = 9, quantity = adt_bytes"),
+     ("median", "median of n = 9, quantity = adt_bytes is 1.0, not 242.0 as the raw data give"),
+     ("stray", "has a row not in the raw data: n = 9, quantity = nothing")],
+)  # fmt: skip
+def test_a_monte_carlo_summary_that_is_not_its_raw_data_s_is_refused(tmp_path, damage, said):
+    """The summary may lack a quantity at a size where it is never computable, so a deleted
+    row could not be told from the summary alone: it was drawn as missing. It is now checked
+    against the raw data it is computed from (both at full precision: equal, not close)."""
+    from replication.report.table1 import load_table1_data
+
+    data = tmp_path / "data"
+    ignored = shutil.ignore_patterns("*meshes*", "performance*")
+    shutil.copytree(ROOT / "reports" / "data", data, ignore=ignored)
+    path = data / "table1_montecarlo.csv"
+    load_table1_data(tmp_path)  # whole as committed
+    lines = path.read_text().splitlines(keepends=True)
+    assert lines[1].startswith("9,adt_bytes,")
+    if damage == "delete":
+        del lines[1]
+    elif damage == "median":
+        fields = lines[1].split(",")
+        fields[lines[0].split(",").index("median")] = "1"
+        lines[1] = ",".join(fields)
+    else:
+        lines.insert(2, lines[1].replace("adt_bytes", "nothing"))
+    path.write_text("".join(lines))
+    with pytest.raises(ReportDataError) as caught:
+        load_table1_data(tmp_path)
+    message = str(caught.value)
+    assert message.startswith(f"{path}: {said}"), message
+    assert "table1_montecarlo_raw.csv" in message and "\n" not in message

@@ -90,8 +90,12 @@ GRIDS = {
     "storage_raw": ("replicate", "coordinates"),
 }
 #: Tables whose rows may differ between sizes: a Monte Carlo quantity that is never computable
-#: at a size (no finite value, as in a quick run's smallest clouds) has no row there.
+#: at a size (no finite value, as in a quick run's smallest clouds) has no row there. Its rows
+#: are checked against the raw data it is computed from instead (:func:`_check_summary`).
 RAGGED = frozenset({"montecarlo"})
+
+
+_DAMAGED = "the data are damaged; regenerate them with `replication table1`"
 
 
 def load_table1_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
@@ -112,7 +116,36 @@ def load_table1_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     if ns:
         for name, keys in GRIDS.items():
             _check_grid(loaded[name], data / f"table1_{name}.csv", ns, keys, complete=name not in RAGGED)
+        _check_summary(loaded["montecarlo"], loaded["montecarlo_raw"], data)
     return loaded
+
+
+def _check_summary(summary: pd.DataFrame, raw: pd.DataFrame, data: Path) -> None:
+    """Refuse a Monte Carlo summary that differs from the one computed from the raw data.
+
+    The summary may lack a quantity at a size (never computable there), so a deleted row
+    cannot be told from the summary alone; the raw data, from which it is computed, tell.
+    Both are saved at full precision, so the recomputed numbers are equal, not close.
+    """
+    from replication.errors import ReportDataError
+    from replication.experiments.table1 import summarize_montecarlo
+
+    keys = ["n", "quantity"]
+    expected = summarize_montecarlo(raw)
+    both = summary.merge(expected, on=keys, how="outer", suffixes=("", " from raw"), indicator=True)
+    path = data / "table1_montecarlo.csv"
+    why = f"it is computed from {data / 'table1_montecarlo_raw.csv'}: {_DAMAGED}"
+    for _, row in both.iterrows():
+        named = f"n = {row['n']:g}, quantity = {row['quantity']}"
+        if row["_merge"] != "both":
+            said = "lacks the row of" if row["_merge"] == "right_only" else "has a row not in the raw data:"
+            raise ReportDataError(f"{path}: {said} {named}; {why}")
+        for column in expected.columns.drop(keys):
+            ours, theirs = row[column], row[f"{column} from raw"]
+            if not (ours == theirs or (pd.isna(ours) and pd.isna(theirs))):
+                raise ReportDataError(
+                    f"{path}: {column} of {named} is {ours}, not {theirs} as the raw data give; {why}"
+                )
 
 
 def _check_grid(
@@ -124,19 +157,18 @@ def _check_grid(
     still be the run's and there once."""
     from replication.errors import ReportDataError
 
-    damaged = "the data are damaged; regenerate them with `replication table1`"
     sizes = set(frame["n"].tolist())
     stray = sorted(n for n in sizes if n not in ns)
     if stray:
-        raise ReportDataError(f"{path}: n = {stray[0]:g} is not one of the run's sizes {ns}: {damaged}")
+        raise ReportDataError(f"{path}: n = {stray[0]:g} is not one of the run's sizes {ns}: {_DAMAGED}")
     absent = [n for n in ns if n not in sizes]
     if absent:
-        raise ReportDataError(f"{path}: no rows for n = {absent[0]}: {damaged}")
+        raise ReportDataError(f"{path}: no rows for n = {absent[0]}: {_DAMAGED}")
     twice = frame.duplicated(["n", *keys])
     if twice.any():
         row = frame[twice].iloc[0]
         named = ", ".join(f"{k} = {row[k]}" for k in ("n", *keys))
-        raise ReportDataError(f"{path}: the row of {named} is there twice: {damaged}")
+        raise ReportDataError(f"{path}: the row of {named} is there twice: {_DAMAGED}")
     if not keys or not complete:
         return
     rows = {n: set(map(tuple, group[list(keys)].astype(str).to_numpy())) for n, group in frame.groupby("n")}
@@ -146,7 +178,7 @@ def _check_grid(
         if lacking:
             named = ", ".join(f"{k} = {v}" for k, v in zip(keys, lacking[0]))
             said = f"n = {n} lacks the row of {named} that other sizes have"
-            raise ReportDataError(f"{path}: {said}; {damaged}")
+            raise ReportDataError(f"{path}: {said}; {_DAMAGED}")
 
 
 def _q(frame: pd.DataFrame, n: int, quantity: str) -> pd.Series:
