@@ -193,6 +193,32 @@ def test_corrupt_config_json(capsys, tmp_path, no_experiment, content, match):
         assert code == 1 and one_line(err, "casestudy") and str(config) in err and match in err, err
 
 
+def test_a_run_directory_holding_a_user_s_files_is_refused(capsys, tmp_path, no_experiment):
+    """casestudy --run-dir put its checkpoints among a directory's unrelated files (force
+    --run-dir refused the same); a directory holding only what a run writes is taken."""
+    from replication.casestudy.rundir import foreign_entries
+
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "thesis.tex").write_text("mine")
+    code, _, err = run(capsys, "casestudy", *TINY, "--run-dir", mine)
+    assert code == 1 and one_line(err, "casestudy"), err
+    assert f"--run-dir {mine} holds files that are not a GA run's (thesis.tex)" in err
+    assert sorted(p.name for p in mine.iterdir()) == ["thesis.tex"]  # nothing written
+    ours = tmp_path / "ours"
+    (ours / "report").mkdir(parents=True)
+    for name in ("config.json", ".lock", "run-0.json", "run-12.json", "fitness.json",
+                 ".config.json.h1-42-ab.tmp.json", ".run-3.json.h1-42-cd.tmp.json"):  # fmt: skip
+        (ours / name).write_text("")
+    assert foreign_entries(ours, own=("fitness.json", "report")) == []
+    for name in ("run-x.json", ".notes.tmp.json", "config.json.bak", "run-1.json~"):
+        (ours / name).write_text("")
+    assert foreign_entries(ours, own=("fitness.json", "report")) == sorted(
+        [".notes.tmp.json", "config.json.bak", "run-1.json~", "run-x.json"]
+    )
+    assert foreign_entries(tmp_path / "absent") == []
+
+
 # ---- executors ------------------------------------------------------------------------------------
 
 

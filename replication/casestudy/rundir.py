@@ -16,7 +16,8 @@ import contextlib
 import dataclasses
 import json
 import os
-from collections.abc import Iterator
+import re
+from collections.abc import Collection, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +32,7 @@ __all__ = [
     "RunDirBusyError",
     "checkpoints",
     "config_from_dict",
+    "foreign_entries",
     "hold",
     "read_config",
     "read_json",
@@ -97,6 +99,32 @@ def close_inherited_locks() -> None:
         with contextlib.suppress(OSError):
             os.close(fd)
     _HELD.clear()
+
+
+#: A checkpoint's name; ``run-<k>.json``.
+_CHECKPOINT = re.compile(r"run-\d+\.json")
+_CHECKPOINT_TMP = re.compile(r"run-\d+\.json\.")
+
+
+def foreign_entries(run_dir: str | os.PathLike[str], own: Collection[str] = ()) -> list[str]:
+    """Names in ``run_dir`` that a GA run does not write there, sorted (none if it does not exist).
+
+    A run writes its configuration, its checkpoints, its lock and the temporary files of
+    their atomic writes (``.config.json.<tag>.tmp.json``); ``own`` names what else the
+    caller writes there (the fitness record, the default reports directory).
+    """
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        return []
+    ours = {CONFIG_NAME, LOCK_NAME, *own}
+
+    def is_ours(name: str) -> bool:
+        if name.startswith(".") and ".tmp" in name:  # an atomic write's temporary: .<name>.<tag>.tmp<suffix>
+            name = name[1:].split(".tmp", 1)[0]
+            return any(name.startswith(f"{n}.") for n in ours) or bool(_CHECKPOINT_TMP.match(name))
+        return name in ours or bool(_CHECKPOINT.fullmatch(name))
+
+    return sorted(entry.name for entry in run_dir.iterdir() if not is_ours(entry.name))
 
 
 def checkpoints(run_dir: str | os.PathLike[str]) -> list[Path]:

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from replication.cli.casestudy_sph import (
+    FITNESS_NAME,
     add_rescore_options,
     check_fitness_record,
     report_rescored,
@@ -169,7 +170,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     """Decide and check the run directory, the settings and the reports directory."""
     from replication.casestudy.checkpoints import load_run
     from replication.casestudy.evaluate import check_executor_options
-    from replication.casestudy.rundir import checkpoints, read_config
+    from replication.casestudy.rundir import CONFIG_NAME, checkpoints, foreign_entries, read_config
     from replication.errors import InputError, UsageError
     from replication.io.paths import check_report_dir, check_writable_dir, lookup
     from replication.report.pages import check_pages, report_page_in
@@ -202,6 +203,13 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
                 raise InputError(
                     f"{run_dir} holds a run with other settings: resume it with --resume, or use a new run "
                     "directory"
+                )
+            others = foreign_entries(run_dir, own=(FITNESS_NAME, "report"))
+            if others:  # as force --run-dir: the run's files do not go among a user's own
+                shown = ", ".join(others[:3]) + (", ..." if len(others) > 3 else "")
+                raise InputError(
+                    f"--run-dir {run_dir} holds files that are not a GA run's ({shown}): the GA writes "
+                    f"{CONFIG_NAME}, run-<k>.json and its report there; use a new or empty directory"
                 )
     check_writable_dir(run_dir, "--run-dir" if args.run_dir else "the GA run directory")
     solver = solver_record(args, rescore)
@@ -384,7 +392,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--run-dir",
         type=directory_name,
         metavar="DIR",
-        help="checkpoint directory (default: casestudy-runs/run-<time>-<process id>)",
+        help="checkpoint directory, new or empty (default: casestudy-runs/run-<time>-<process id>)",
     )
     p.add_argument(
         "--resume",
