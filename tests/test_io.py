@@ -416,6 +416,26 @@ def test_quoted_numbers_are_a_malformed_data_line_not_a_header(tmp_path):
         load_cloud(tmp_path / "h.csv")
 
 
+@pytest.mark.parametrize("sep", [" ", ",", "\t"])
+def test_fortran_d_exponents_read_as_e_exponents(tmp_path, sep):
+    """A first line '1.0D+00 2.0D+00 3.0D+00' (Fortran's double-precision output) was taken
+    for a header, and the error blamed line 2."""
+    fortran = [f"{x:.16E}".replace("E", "D" if i % 2 else "d") for i, x in enumerate(CLOUD.ravel())]
+    lines = [sep.join(fortran[3 * i : 3 * i + 3]) for i in range(len(CLOUD))]
+    (tmp_path / "f.txt").write_text("\n".join(lines) + "\n")
+    np.testing.assert_array_equal(load_cloud(tmp_path / "f.txt"), CLOUD)
+    (tmp_path / "h.txt").write_text("x y z\n" + "\n".join(lines) + "\n")  # under a header too
+    np.testing.assert_array_equal(load_cloud(tmp_path / "h.txt"), CLOUD)
+    (tmp_path / "big.txt").write_text(f"1D0{sep}2D0{sep}3D0\n4D0{sep}5D0{sep}1D400\n")  # quoted as written
+    with pytest.raises(
+        CloudFileError, match=r"big\.txt: line 2, column 3: '1D400' is too large for a float64"
+    ):
+        load_cloud(tmp_path / "big.txt")
+    (tmp_path / "bad.txt").write_text(f"1D0{sep}2D0{sep}3D0\n4D0{sep}5D0{sep}6Dx\n")  # not a number
+    with pytest.raises(CloudFileError, match=r"bad\.txt: line 2, column 3: '6Dx' is not a number"):
+        load_cloud(tmp_path / "bad.txt")
+
+
 @pytest.mark.parametrize(
     ("header", "columns"),
     [("depth,x,y", "2, 3 and 1"), ("y,x,height", "2, 1 and 3"), ("Y [mm];X [mm];h", "2, 1 and 3")],

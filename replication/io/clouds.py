@@ -17,6 +17,9 @@ A first line ``0,1,2`` (or ``0 1 2``) with no comment above it is refused (see
 and a guess either way would make the same cloud give other numbers as ``.csv`` than as
 ``.npy``. The files :func:`save_cloud` writes are never ambiguous: their ``.csv`` has the
 header ``x,y,z``, and their ``.txt``/``.xyz`` start with the comment ``# x y z``.
+Numbers may be written with Fortran's exponent letter ``D`` (``1.0D+00``, as Fortran's
+double-precision output has it): they read as ``1.0E+00`` (a first line of them was taken for
+a header, and the error blamed line 2).
 Every problem is reported as a :class:`~replication.errors.CloudFileError` naming the file
 and, where it applies, the line.
 """
@@ -46,6 +49,22 @@ _TEXT_SUFFIXES = (".csv", ".txt", ".xyz")
 #: The first line of the ``.txt``/``.xyz`` files :func:`save_cloud` writes: a comment that says
 #: the next line is a point, even a point (0, 1, 2).
 TEXT_HEADER = "# x y z\n"
+
+
+#: A number with Fortran's double-precision exponent letter: ``1.0D+00``, ``-2.5d-3``.
+_FORTRAN = re.compile(r"([+-]?(?:\d+\.?\d*|\.\d+))[dD]([+-]?\d+)")
+
+
+def _fortran(token: str) -> str:
+    """``token`` with a Fortran exponent letter ``D`` written as ``e`` (``1.0D+00`` -> ``1.0e+00``)."""
+    match = _FORTRAN.fullmatch(token)
+    return f"{match[1]}e{match[2]}" if match else token
+
+
+def _as_read(line: str) -> str:
+    """A data line as numpy's reader is given it: its Fortran numbers written with ``e``."""
+    comma = "," in line
+    return ("," if comma else " ").join(_fortran(token) for token in _split(line, comma))
 
 
 def _is_number(token: str) -> bool:
@@ -97,7 +116,7 @@ def _diagnose(path: Path, lines: list[tuple[int, str]], comma: bool) -> CloudFil
                 f"{path}: line {number} has {len(tokens)} column(s), expected 3 (x, y, z): {line.strip()!r}"
             )
         for column, token in enumerate(tokens, start=1):
-            if not _is_float64_text(token):
+            if not _is_float64_text(_fortran(token)):
                 return CloudFileError(f"{path}: line {number}, column {column}: {token!r} is not a number")
     return CloudFileError(f"{path}: could not parse the file as three numeric columns")
 
@@ -186,7 +205,8 @@ def _load_text(path: Path) -> np.ndarray:
     commented = _comment_header(path, lines, numbered[0][0])
     header, order = commented if commented is not None else (first_tokens, None)
     # (a quoted number is a number here: a line of them is a malformed data line, not a header)
-    if not any(_is_number(t.strip("\"'")) for t in first_tokens) and any(c.isalpha() for c in numbered[0][1]):
+    numeric = any(_is_number(_fortran(t.strip("\"'"))) for t in first_tokens)
+    if not numeric and any(c.isalpha() for c in numbered[0][1]):
         # a header line: names, no numeric token (a malformed data line such as "1;2;3" has no
         # letter, and is reported as line 1, not taken for a header and line 2 blamed)
         first_tokens = _header_tokens(numbered[0][1])
@@ -223,6 +243,8 @@ def _load_text(path: Path) -> np.ndarray:
         raise _column_number_header(path, numbered[0][0], numbered[0][1])
     comma = "," in numbered[0][1]
     body = "\n".join(line for _, line in numbered)
+    if "d" in body or "D" in body:  # Fortran exponents (one scan of the text, not one per line)
+        body = "\n".join(_as_read(line) for _, line in numbered)
     try:
         data = np.loadtxt(io.StringIO(body), delimiter="," if comma else None, ndmin=2, dtype=np.float64)
     except ValueError:
@@ -234,7 +256,7 @@ def _load_text(path: Path) -> np.ndarray:
         for i in bad:  # a number too large for float64 ("1e400") reads as infinite: name it
             for column, token in enumerate(_split(numbered[i][1], comma), start=1):
                 word = token.strip().strip("\"'")
-                if _overflows(word):
+                if _overflows(_fortran(word)):
                     raise CloudFileError(
                         f"{path}: line {numbered[i][0]}, column {column}: {shortened(word)!r} is too large "
                         f"for a float64 coordinate (at most about 1.8e308 in absolute value)"
