@@ -723,6 +723,46 @@ def test_a_data_set_is_published_whole_with_its_provenance_last(tmp_path, monkey
     assert _files(data) == {"e_a.csv": b"a2\n", "sub/m.vtk": b"m\n", "e_provenance.json": b'{"run": 2}\n'}
 
 
+@pytest.mark.parametrize("how", ["one file", "all or none", "data set"])
+def test_every_rename_into_place_is_followed_by_a_sync_of_its_directory(tmp_path, monkeypatch, how):
+    """Files were synced before their rename, but the directories holding the renames were
+    not: after a power cut the old file could be back, or none."""
+    from replication.report import store
+
+    events = []
+    real_replace, real_fsync = os.replace, os.fsync
+
+    def replace(a, b):
+        real_replace(a, b)
+        events.append(("rename", Path(b).resolve().parent))
+
+    def fsync(fd):
+        real_fsync(fd)
+        path = Path(os.readlink(f"/proc/self/fd/{fd}"))
+        if path.is_dir():
+            events.append(("sync", path))
+
+    monkeypatch.setattr(os, "replace", replace)
+    monkeypatch.setattr(os, "fsync", fsync)
+    if how == "one file":
+        atomic_module.atomic_write_text(tmp_path / "a.txt", "a\n")
+    elif how == "all or none":
+        (tmp_path / "sub").mkdir()
+        with atomic_module.all_or_none():
+            atomic_module.atomic_write_text(tmp_path / "a.txt", "a\n")
+            atomic_module.atomic_write_text(tmp_path / "sub" / "b.txt", "b\n")
+    else:
+        with store.data_set(tmp_path / "data", "e_provenance.json") as staged:
+            (staged / "sub").mkdir()
+            (staged / "sub" / "m.vtk").write_text("m\n")
+            (staged / "e_provenance.json").write_text("{}\n")
+    renamed = {directory for kind, directory in events if kind == "rename"}
+    assert renamed
+    for directory in renamed:
+        last_rename = max(k for k, event in enumerate(events) if event == ("rename", directory))
+        assert ("sync", directory) in events[last_rename:], (directory, events)
+
+
 @pytest.mark.parametrize("stop", [KeyboardInterrupt, OSError])
 def test_a_data_set_stopped_while_it_is_written_leaves_the_old_one_whole(tmp_path, stop):
     # was: files written one by one, so Ctrl-C before the provenance left one run's tables under

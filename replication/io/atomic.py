@@ -37,6 +37,7 @@ __all__ = [
     "check_output_path",
     "interrupt_deferred",
     "note_written",
+    "sync_directory",
     "writer_gone",
     "writer_tag",
     "written_before",
@@ -144,6 +145,25 @@ def _mode_for(final: Path) -> int:
     return 0o666 & ~umask
 
 
+def sync_directory(directory: str | os.PathLike[str]) -> None:
+    """Make the renames into ``directory`` durable (fsync the directory itself).
+
+    A file is synced before its rename, but the rename lives in the directory: after a power
+    cut the old file could be back, or none. Where a directory cannot be opened or synced
+    (Windows, some network file systems) nothing is done: the rename is still atomic.
+    """
+    try:
+        fd = os.open(directory, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path next to ``path``; on success rename it to ``path``.
@@ -172,6 +192,7 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         staged = _STAGED.get()
         if staged is None:
             os.replace(tmp, final)
+            sync_directory(final.parent)
         else:
             staged.append((tmp, final))
     except BaseException as exc:
@@ -342,6 +363,8 @@ def _move_all(staged: list[tuple[Path, Path]]) -> None:
         if isinstance(exc, OSError) and not isinstance(exc, OutputError):
             raise OutputError(f"cannot write {final}: {exc.strerror or exc}") from exc
         raise
+    for directory in dict.fromkeys(done.parent for done, _ in moved):
+        sync_directory(directory)
     for _, backup in moved:
         if backup is not None:
             with contextlib.suppress(OSError):

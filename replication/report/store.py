@@ -27,6 +27,7 @@ from replication.io.atomic import (
     atomic_write_text,
     interrupt_deferred,
     note_written,
+    sync_directory,
     writer_gone,
     writer_tag,
 )
@@ -247,6 +248,8 @@ def _publish_set(staging: Path, data: Path, provenance: str, staged: list[Path],
             _publish(staging / name, data / name)
     if (staging / provenance).is_file():
         _publish(staging / provenance, data / provenance)
+    for directory in sorted({(data / name).resolve().parent for name in staged} | {data.resolve()}):
+        sync_directory(directory)
 
 
 def _publish(source: Path, target: Path) -> None:
