@@ -799,6 +799,45 @@ def test_a_ctrl_c_while_a_data_set_is_published_is_held_until_it_is_whole(tmp_pa
     assert sorted(_files(data)) == ["e_a.csv", "e_b.csv", "e_provenance.json"]  # published whole
 
 
+def test_a_ctrl_c_held_while_a_move_fails_still_stops_and_names_the_failure(tmp_path, monkeypatch, capsys):
+    """A Ctrl-C held while the files were moved into place was dropped when a later move
+    failed: the write error alone came out, and a caller that handled it went on."""
+    import errno
+    import signal
+
+    from replication.cli import _stopped
+    from replication.errors import OutputError
+
+    (tmp_path / "a.txt").write_text("old a\n")
+    real_replace = os.replace
+    calls = []
+
+    def replace(a, b):
+        calls.append(b)
+        if len(calls) == 1:
+            real_replace(a, b)
+            os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C after the first move
+        elif len(calls) == 2:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        else:  # putting the first file back
+            real_replace(a, b)
+
+    monkeypatch.setattr(os, "replace", replace)
+    with pytest.raises(KeyboardInterrupt) as caught, atomic_module.all_or_none():
+        atomic_module.atomic_write_text(tmp_path / "a.txt", "new a\n")
+        atomic_module.atomic_write_text(tmp_path / "b.txt", "new b\n")
+    assert isinstance(caught.value.__cause__, OutputError)
+    assert atomic_module.written_before(caught.value) == ()  # nothing was left moved
+    assert _files(tmp_path) == {"a.txt": b"old a\n"}
+    assert _stopped("replication adt", caught.value) == 130
+    err = capsys.readouterr().err
+    said = f"cannot write {tmp_path / 'b.txt'}: No space left on device"
+    assert err == f"replication adt: interrupted; meanwhile: {said}\n"
+    monkeypatch.setattr(os, "replace", real_replace)
+    with pytest.raises(OutputError), atomic_module.interrupt_deferred():  # no interrupt: the error
+        raise OutputError("cannot write x")
+
+
 def test_two_saves_into_one_data_directory_publish_one_after_the_other(tmp_path, monkeypatch):
     """Two commands saving one experiment into one directory interleaved their publishing: the
     second's first file beside the first's others, under the first's provenance."""

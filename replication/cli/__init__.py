@@ -349,8 +349,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _stopped(name: str, exc: BaseException | None = None) -> int:
-    """Say that the command was stopped, by Ctrl-C (exit 130) or SIGTERM (143), and which
-    files it had written when the signal came while they were moved into place."""
+    """Say that the command was stopped, by Ctrl-C (exit 130) or SIGTERM (143), which files it
+    had written when the signal came while they were moved into place, and the error of a
+    write that failed meanwhile."""
     from replication.io.atomic import written_before
 
     written = written_before(exc) if exc is not None else ()
@@ -358,6 +359,9 @@ def _stopped(name: str, exc: BaseException | None = None) -> int:
     if written:
         shown = ", ".join(str(path) for path in written[:3]) + (", ..." if len(written) > 3 else "")
         after = f" after writing {len(written)} file{'s' if len(written) > 1 else ''} ({escaped(shown)})"
+    cause = exc.__cause__ if exc is not None else None
+    if isinstance(cause, ReplicationError):  # a write that failed while the signal was held
+        after += f"; meanwhile: {escaped(str(cause))}"
     if terminated():
         print(f"{name}: terminated (SIGTERM){after}", file=sys.stderr)
         return SIGTERM_EXIT

@@ -222,7 +222,9 @@ def interrupt_deferred() -> Iterator[None]:
     Only where Python's own SIGINT handler, or :mod:`replication.sigterm`'s SIGTERM handler,
     is in place (in the main thread): an ignored SIGINT (a background job) or an
     application's own handler is left to do what it does. A SIGTERM held here is raised as
-    :class:`~replication.sigterm.Terminated`, before a Ctrl-C held with it.
+    :class:`~replication.sigterm.Terminated`, before a Ctrl-C held with it. When the block
+    fails while an interrupt is held, the interrupt is raised all the same, with the error as
+    its ``__cause__`` (it was dropped, and a caller that handles the error went on).
     """
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -233,17 +235,30 @@ def interrupt_deferred() -> Iterator[None]:
     if sigterm.handler_installed():
         held[signal.SIGTERM] = signal.getsignal(signal.SIGTERM)  # type: ignore[assignment]
     caught: list[int] = []
+    error: Exception | None = None
     try:
         for signum in held:  # (inside the try: a signal between the two leaves neither replaced)
             signal.signal(signum, lambda signum, frame: caught.append(signum))
-        yield
+        try:
+            yield
+        except Exception as exc:
+            if not caught:
+                raise
+            error = exc  # the held interrupt still ends the command, this error as its cause
     finally:
         for signum, handler in held.items():
             signal.signal(signum, handler)
-    if signal.SIGTERM in caught:
-        held[signal.SIGTERM](signal.SIGTERM, None)  # raises Terminated, unless a SIGTERM came before
-    if signal.SIGINT in caught:
-        raise KeyboardInterrupt
+    try:
+        if signal.SIGTERM in caught:
+            held[signal.SIGTERM](signal.SIGTERM, None)  # raises Terminated, unless a SIGTERM came before
+        if signal.SIGINT in caught:
+            raise KeyboardInterrupt
+    except KeyboardInterrupt as stop:
+        if error is not None:
+            raise stop from error
+        raise
+    if error is not None:
+        raise error
 
 
 #: The (temporary, final) files of the :func:`all_or_none` block running, in the order written.
