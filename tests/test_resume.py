@@ -296,6 +296,42 @@ def test_ctrl_c_held_while_table1_s_data_are_published_says_they_were_saved(caps
     assert last == "replication table1: interrupted after writing 1 file (out/data/table1_provenance.json)"
 
 
+@pytest.mark.parametrize("when", ["saved", "drawn"])
+def test_the_sph_study_says_its_data_are_saved_when_interrupted_after_saving_them(
+    when, capsys, tmp_path, monkeypatch
+):
+    """table1 and casestudy said where their saved data were, and how to draw them, when a
+    Ctrl-C came once they were saved; the SPH study (and validate-jet, which shares the
+    code) ended with a bare "interrupted"."""
+    from replication.io.atomic import note_written
+
+    def saved_then_ctrl_c(results, out):
+        exc = KeyboardInterrupt()
+        note_written(exc, [out / "data" / "sph_provenance.json"])
+        raise exc
+
+    def ctrl_c(out):
+        raise KeyboardInterrupt
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("replication.casestudy.sph.require_engine", lambda: None)
+    monkeypatch.setattr("replication.experiments.sph.run_sph_study", lambda config, **kw: "results")
+    if when == "saved":
+        monkeypatch.setattr("replication.report.sph.save_sph_data", saved_then_ctrl_c)
+    else:
+        monkeypatch.setattr("replication.report.sph.save_sph_data", lambda results, out: None)
+        monkeypatch.setattr("replication.report.sph.render_sph", ctrl_c)
+    assert main(["sph", "--quick", "--output-dir", "out", "--workers", "1"]) == 130
+    lines = capsys.readouterr().err.strip().splitlines()
+    draw = shlex.join(["replication", "report", "--output-dir", "out"])
+    if when == "saved":
+        assert lines[-2] == f"interrupted once the data were saved in out/data: draw the report with: {draw}"
+        assert lines[-1] == "replication sph: interrupted after writing 1 file (out/data/sph_provenance.json)"
+    else:
+        said = f"interrupted while drawing the report: its data are saved in out/data; draw it with: {draw}"
+        assert lines[-2:] == [said, "replication sph: interrupted"]
+
+
 @pytest.mark.parametrize("command", ["table1", "casestudy"])
 def test_an_error_while_the_report_is_drawn_says_the_data_are_saved(command, capsys, tmp_path, monkeypatch):
     """A full disk while the figures were drawn left the new data beside the earlier run's page,

@@ -37,12 +37,11 @@ from replication.cli.casestudy_sph import (
 )
 from replication.cli.common import (
     directory_name,
-    draw_command,
     drawing_saved_data,
     emit_json,
     positive_int,
+    saving_data,
     say_simulations_finish,
-    say_when_publishing_waits,
     seed,
     worker_count,
 )
@@ -301,28 +300,17 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
         except BaseException:
             remove_unused_run_dir(plan.run_dir, plan.created)
             raise
-    command = draw_command(plan.out)
     try:
-        with say_when_publishing_waits():
+        with saving_data(plan.out):
             save_casestudy_data(results, plan.out)
     except KeyboardInterrupt as exc:
-        if written_before(exc):  # held while the files were moved into place: they are
-            said = f"once the data were saved in {plan.out / 'data'}: draw the report with: {command}"
-        else:
-            said = (
-                f"while saving the data: every run is complete in {plan.run_dir} and the previous "
-                f"data in {plan.out / 'data'} are as they were; save them with: {plan.hint}"
-            )
-        print(f"interrupted {said}", file=sys.stderr)
+        if not written_before(exc):  # (else saving_data said that they are saved)
+            print(f"interrupted while saving the data: every run is complete in {plan.run_dir} and the "
+                  f"previous data in {plan.out / 'data'} are as they were; save them with: {plan.hint}",
+                  file=sys.stderr)  # fmt: skip
         raise
-    try:
-        with drawing_saved_data(plan.out):
-            return results, render_casestudy(plan.out, workers=_workers(args))
-    except KeyboardInterrupt as exc:
-        if not written_before(exc):  # (else it was drawn: the command's last line names its files)
-            print(f"interrupted while drawing the report: its data are saved in {plan.out / 'data'}; "
-                  f"draw it with: {command}", file=sys.stderr)  # fmt: skip
-        raise
+    with drawing_saved_data(plan.out):
+        return results, render_casestudy(plan.out, workers=_workers(args))
 
 
 def _workers(args: argparse.Namespace) -> int:

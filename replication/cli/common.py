@@ -338,19 +338,47 @@ def draw_command(out: Any) -> str:
 
 
 @contextlib.contextmanager
+def saving_data(out: Any) -> Iterator[None]:
+    """Around saving report data into ``out/data``: a wait for another command's save is said,
+    and a Ctrl-C (or SIGTERM) held while the files were moved into place says that they are
+    saved and how to draw the report (the command's last line names the files)."""
+    from pathlib import Path
+
+    from replication.io.atomic import written_before
+
+    try:
+        with say_when_publishing_waits():
+            yield
+    except KeyboardInterrupt as exc:
+        if written_before(exc):
+            print(f"interrupted once the data were saved in {Path(out) / 'data'}: draw the report with: "
+                  f"{draw_command(out)}", file=sys.stderr)  # fmt: skip
+        raise
+
+
+@contextlib.contextmanager
 def drawing_saved_data(out: Any) -> Iterator[None]:
     """Around drawing a report from the data just saved into ``out/data``: an error (a full
     disk) leaves the page and figures of an earlier run beside the new data, or some of them
-    redrawn, so its one line also says that the data are saved and how to draw the report."""
-    from replication.errors import ReplicationError
+    redrawn, so its one line also says that the data are saved and how to draw the report;
+    so does a line before the command's last after a Ctrl-C (sph and validate-jet said nothing)."""
+    from pathlib import Path
 
+    from replication.errors import ReplicationError
+    from replication.io.atomic import written_before
+
+    draw = draw_command(out)
     try:
         yield
     except ReplicationError as exc:
-        draw = draw_command(out)
         raise type(exc)(
             f"{exc}; the new data are saved in {out}/data: once that is fixed, draw the report with: {draw}"
         ) from exc
+    except KeyboardInterrupt as exc:
+        if not written_before(exc):  # (else it was drawn: the command's last line names its files)
+            print(f"interrupted while drawing the report: its data are saved in {Path(out) / 'data'}; "
+                  f"draw it with: {draw}", file=sys.stderr)  # fmt: skip
+        raise
 
 
 @contextlib.contextmanager

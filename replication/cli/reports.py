@@ -13,11 +13,10 @@ from typing import Any
 from replication.cli.casestudy import plan_casestudy, run_and_report
 from replication.cli.common import (
     directory_name,
-    draw_command,
     drawing_saved_data,
     file_name,
     positive_int,
-    say_when_publishing_waits,
+    saving_data,
     worker_count,
 )
 from replication.cli.outputs import (
@@ -30,7 +29,6 @@ from replication.cli.outputs import (
 )
 from replication.cli.progress import progress_bar
 from replication.cpus import usable_cpus
-from replication.io.atomic import written_before
 from replication.kernels import release_threads, warm_up
 from replication.report.pages import PAGE_TITLES
 
@@ -49,23 +47,10 @@ def _run_table1(out: Path, quick: bool, command: str, workers: int | None = None
     config = Table1Config.quick_config() if quick else Table1Config()
     workers = workers or usable_cpus()
     results = run_table1(config, progress=progress_bar, command=command, workers=workers)
-    draw = draw_command(out)
-    try:
-        with say_when_publishing_waits():
-            save_table1_data(results, out)
-    except KeyboardInterrupt as exc:  # held while the files were moved into place: they are
-        if written_before(exc):
-            print(f"interrupted once the data were saved in {out / 'data'}: draw the report with: {draw}",
-                  file=sys.stderr)  # fmt: skip
-        raise
-    try:
-        with drawing_saved_data(out):
-            return render_table1(out, workers=workers)
-    except KeyboardInterrupt as exc:  # minutes of experiment are saved: say so, and how to draw them
-        if not written_before(exc):  # (else it was drawn: the command's last line names its files)
-            print(f"interrupted while drawing the report: its data are saved in {out / 'data'}; "
-                  f"draw it with: {draw}", file=sys.stderr)  # fmt: skip
-        raise
+    with saving_data(out):  # minutes of experiment: a Ctrl-C says where they are saved
+        save_table1_data(results, out)
+    with drawing_saved_data(out):
+        return render_table1(out, workers=workers)
 
 
 def _said(written: list[Path], out: Path) -> None:

@@ -14,7 +14,7 @@ from replication.cli.common import (
     directory_name,
     drawing_saved_data,
     emit_json,
-    say_when_publishing_waits,
+    saving_data,
     worker_count,
 )
 
@@ -315,7 +315,7 @@ def run_sph_report(out: Path, quick: bool, command: str, workers: int | None = N
             results = run_sph_study(
                 config, command=command, quick=quick, on_run=tick, executor=pool, max_parallel=at_once
             )
-    with say_when_publishing_waits():
+    with saving_data(out):
         save_sph_data(results, out)
     with drawing_saved_data(out):
         return render_sph(out)

@@ -32,7 +32,7 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
     from replication.casestudy.evaluate import executor
     from replication.casestudy.sph import require_engine
     from replication.casestudy.sph_batch import default_cache_dir
-    from replication.cli.common import drawing_saved_data, say_simulations_finish, say_when_publishing_waits
+    from replication.cli.common import drawing_saved_data, saving_data, say_simulations_finish
     from replication.cli.progress import Progress
     from replication.errors import SimulationError
     from replication.experiments.jet_validation import run_validation
@@ -95,7 +95,7 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
             f"no simulation succeeded ({counts}); nothing was written (see the reasons above; "
             "--retry-failed simulates the failed ones again)"
         )
-    with say_when_publishing_waits():
+    with saving_data(out):
         save_jet_validation_data(results, out)
     with drawing_saved_data(out):
         return results, render_jet_validation(out)
