@@ -190,7 +190,10 @@ def check_writable_dir(path: str | os.PathLike[str], what: str) -> Path:
     except OSError as exc:
         reason = exc.strerror or str(exc)
         where = "" if existing == target else f" (it would be created in {existing})"
-        raise OutputError(f"{what} {target} is not writable{where}: {reason}") from exc
+        # "not writable: No such file or directory" (/proc) said two things at once
+        refused = exc.errno in (errno.EACCES, errno.EPERM, errno.EROFS)
+        said = "is not writable" if refused else "cannot hold new files"
+        raise OutputError(f"{what} {target} {said}{where}: {reason}") from exc
     return target
 
 
