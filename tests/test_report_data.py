@@ -220,7 +220,9 @@ def test_a_table1_table_that_is_not_whole_is_refused_saying_what_it_lacks(tmp_pa
 
 @pytest.mark.parametrize(
     ("damage", "said"),
-    [("delete", "lacks the row of n = 9, quantity = adt_bytes"),
+    [("one ulp", None),
+     ("no fraction", "no column 'fraction'"),
+     ("delete", "lacks the row of n = 9, quantity = adt_bytes"),
      ("median", "median of n = 9, quantity = adt_bytes is 1.0, not 242.0 as the raw data give"),
      ("stray", "has a row not in the raw data: n = 9, quantity = nothing")],
 )  # fmt: skip
@@ -237,7 +239,15 @@ def test_a_monte_carlo_summary_that_is_not_its_raw_data_s_is_refused(tmp_path, d
     load_table1_data(tmp_path)  # whole as committed
     lines = path.read_text().splitlines(keepends=True)
     assert lines[1].startswith("9,adt_bytes,")
-    if damage == "delete":
+    if damage == "one ulp":  # as pandas 2's reader may read a number back: not damage
+        header = lines[0].split(",")
+        fields = lines[1].split(",")
+        k = header.index("q3")
+        fields[k] = f"{np.nextafter(float(fields[k]), np.inf):.17g}"
+        lines[1] = ",".join(fields)
+    elif damage == "no fraction":
+        lines = [line.rsplit(",", 1)[0] + "\n" for line in lines]
+    elif damage == "delete":
         del lines[1]
     elif damage == "median":
         fields = lines[1].split(",")
@@ -246,8 +256,11 @@ def test_a_monte_carlo_summary_that_is_not_its_raw_data_s_is_refused(tmp_path, d
     else:
         lines.insert(2, lines[1].replace("adt_bytes", "nothing"))
     path.write_text("".join(lines))
+    if said is None:
+        load_table1_data(tmp_path)
+        return
     with pytest.raises(ReportDataError) as caught:
         load_table1_data(tmp_path)
     message = str(caught.value)
     assert message.startswith(f"{path}: {said}"), message
-    assert "table1_montecarlo_raw.csv" in message and "\n" not in message
+    assert "\n" not in message
