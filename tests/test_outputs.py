@@ -216,13 +216,20 @@ def test_an_unwritable_output_directory_is_refused_before_any_work(
     assert f"cannot write /sys/kernel/{name}: the directory /sys/kernel is not writable" in err, err
 
 
-def test_a_directory_that_takes_no_new_files_is_not_called_unwritable_for_another_reason(capsys):
+def test_a_directory_that_takes_no_new_files_is_not_called_unwritable_for_another_reason(capsys, tmp_path):
     """/proc refuses new files with ENOENT: "the directory /proc is not writable: No such file
     or directory" said two things at once."""
     code, out, err = run(capsys, "adt", "--random", "30", "-o", "/proc/x.vtk")
     assert code == 1 and out == "", err
     said = "cannot write /proc/x.vtk: the directory /proc cannot hold new files: No such file or directory"
     assert err == f"replication adt: error: {said}\n"
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "data").symlink_to("/proc")  # a report directory's data directory too
+    code, out, err = run(capsys, "table1", "--quick", "--output-dir", tmp_path / "out")
+    assert code == 1 and out == "", err
+    assert err.endswith(f"{tmp_path / 'out' / 'data'} cannot hold new files: No such file or directory\n"), (
+        err
+    )
 
 
 @pytest.mark.parametrize(

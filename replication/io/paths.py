@@ -162,6 +162,13 @@ def _nearest_existing(target: Path, what: str) -> Path:
     return existing
 
 
+def _no_new_files(exc: OSError) -> str:
+    """What a directory in which no file could be created is: "not writable" for a permission
+    error only ("not writable: No such file or directory", /proc's answer, said two things)."""
+    refused = exc.errno in (errno.EACCES, errno.EPERM, errno.EROFS)
+    return "is not writable" if refused else "cannot hold new files"
+
+
 def check_writable_dir(path: str | os.PathLike[str], what: str) -> Path:
     """Check, without creating it, that directory ``path`` exists or can be created, and is writable.
 
@@ -190,10 +197,7 @@ def check_writable_dir(path: str | os.PathLike[str], what: str) -> Path:
     except OSError as exc:
         reason = exc.strerror or str(exc)
         where = "" if existing == target else f" (it would be created in {existing})"
-        # "not writable: No such file or directory" (/proc) said two things at once
-        refused = exc.errno in (errno.EACCES, errno.EPERM, errno.EROFS)
-        said = "is not writable" if refused else "cannot hold new files"
-        raise OutputError(f"{what} {target} {said}{where}: {reason}") from exc
+        raise OutputError(f"{what} {target} {_no_new_files(exc)}{where}: {reason}") from exc
     return target
 
 
@@ -225,7 +229,7 @@ def check_report_dir(
             with tempfile.TemporaryFile(dir=sub, prefix=".replication-probe-"):
                 pass
         except OSError as exc:
-            raise OutputError(f"{what} {target}: {sub} is not writable: {exc.strerror or exc}") from exc
+            raise OutputError(f"{what} {target}: {sub} {_no_new_files(exc)}: {exc.strerror or exc}") from exc
     return target
 
 
