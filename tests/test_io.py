@@ -836,6 +836,35 @@ def test_a_ctrl_c_held_while_a_move_fails_still_stops_and_names_the_failure(tmp_
     monkeypatch.setattr(os, "replace", real_replace)
     with pytest.raises(OutputError), atomic_module.interrupt_deferred():  # no interrupt: the error
         raise OutputError("cannot write x")
+    stop = KeyboardInterrupt()  # a cause that is no ReplicationError (a data set's own moves) is said too
+    stop.__cause__ = PermissionError(errno.EACCES, "Permission denied", "out/data/e_b.csv")
+    assert _stopped("replication table1", stop) == 130
+    said = "replication table1: interrupted; meanwhile: out/data/e_b.csv: Permission denied"
+    assert capsys.readouterr().err == said + "\n"
+
+
+def test_a_directory_that_cannot_be_synced_for_an_io_error_says_so(tmp_path, monkeypatch):
+    """The sync that makes a rename durable: skipped where a directory cannot be synced at all,
+    an error naming the directory on an I/O error (the file is in place, but may not stay)."""
+    import errno
+
+    from replication.errors import OutputError
+
+    real_fsync = os.fsync
+    answer = [errno.EINVAL]
+
+    def fsync(fd):
+        if os.path.isdir(os.readlink(f"/proc/self/fd/{fd}")):
+            raise OSError(answer[0], os.strerror(answer[0]))
+        real_fsync(fd)
+
+    monkeypatch.setattr(os, "fsync", fsync)
+    atomic_module.atomic_write_text(tmp_path / "a.txt", "a\n")  # EINVAL: cannot sync here, quietly
+    answer[0] = errno.EIO
+    with pytest.raises(OutputError, match=f"cannot make the files just written in {tmp_path} durable: "):
+        atomic_module.atomic_write_text(tmp_path / "a.txt", "b\n")
+    assert (tmp_path / "a.txt").read_text() == "b\n"  # in place, and the error does not say otherwise
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt"]
 
 
 def test_two_saves_into_one_data_directory_publish_one_after_the_other(tmp_path, monkeypatch):

@@ -360,8 +360,9 @@ def _stopped(name: str, exc: BaseException | None = None) -> int:
         shown = ", ".join(str(path) for path in written[:3]) + (", ..." if len(written) > 3 else "")
         after = f" after writing {len(written)} file{'s' if len(written) > 1 else ''} ({escaped(shown)})"
     cause = exc.__cause__ if exc is not None else None
-    if isinstance(cause, ReplicationError):  # a write that failed while the signal was held
-        after += f"; meanwhile: {escaped(str(cause))}"
+    if isinstance(cause, Exception):  # a write that failed while the signal was held
+        text = str(cause) if isinstance(cause, ReplicationError) else _refused(cause) or _unexpected(cause)
+        after += f"; meanwhile: {escaped(text)}"
     if terminated():
         print(f"{name}: terminated (SIGTERM){after}", file=sys.stderr)
         return SIGTERM_EXIT

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import errno
 import glob
 import hashlib
 import os
@@ -145,12 +146,22 @@ def _mode_for(final: Path) -> int:
     return 0o666 & ~umask
 
 
+#: fsync's answers where a directory cannot be synced at all (no failure of the disk).
+_CANNOT_SYNC = frozenset({errno.EINVAL, errno.EBADF, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EROFS})
+
+
 def sync_directory(directory: str | os.PathLike[str]) -> None:
     """Make the renames into ``directory`` durable (fsync the directory itself).
 
     A file is synced before its rename, but the rename lives in the directory: after a power
     cut the old file could be back, or none. Where a directory cannot be opened or synced
     (Windows, some network file systems) nothing is done: the rename is still atomic.
+
+    Raises
+    ------
+    OutputError
+        The directory could not be synced for another reason (an I/O error): the renames
+        are in place, but may not survive a power cut.
     """
     try:
         fd = os.open(directory, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
@@ -158,8 +169,11 @@ def sync_directory(directory: str | os.PathLike[str]) -> None:
         return
     try:
         os.fsync(fd)
-    except OSError:
-        pass
+    except OSError as exc:
+        if exc.errno not in _CANNOT_SYNC:
+            raise OutputError(
+                f"cannot make the files just written in {directory} durable: {exc.strerror or exc}"
+            ) from exc
     finally:
         os.close(fd)
 
@@ -192,7 +206,6 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         staged = _STAGED.get()
         if staged is None:
             os.replace(tmp, final)
-            sync_directory(final.parent)
         else:
             staged.append((tmp, final))
     except BaseException as exc:
@@ -201,6 +214,8 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         if isinstance(exc, OSError) and not isinstance(exc, OutputError):
             raise OutputError(f"cannot write {final}: {exc.strerror or exc}") from exc
         raise
+    if staged is None:  # (after the block: its errors say the destination is untouched)
+        sync_directory(final.parent)
 
 
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> int:
