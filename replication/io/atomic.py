@@ -393,9 +393,9 @@ def _move_all(staged: list[tuple[Path, Path]]) -> None:
         if isinstance(exc, OSError) and not isinstance(exc, OutputError):
             raise OutputError(f"cannot write {final}: {exc.strerror or exc}") from exc
         raise
-    for directory in dict.fromkeys(done.parent for done, _ in moved):
-        sync_directory(directory)
     for _, backup in moved:
         if backup is not None:
             with contextlib.suppress(OSError):
                 backup.unlink()
+    for directory in dict.fromkeys(done.parent for done, _ in moved):  # (its error leaves no backup)
+        sync_directory(directory)
