@@ -120,3 +120,33 @@ def test_a_local_clusters_workers_are_quietened_before_it_closes(local):
         with pytest.raises(StopIteration):  # the block ended normally
             next(executor)
     assert client.ran == ([cluster._quiet] if local else [])  # a user's own workers are left alone
+
+
+def _record(error):
+    try:
+        raise error
+    except Exception:
+        info = sys.exc_info()
+    return logging.LogRecord("tornado.application", logging.ERROR, __file__, 1, "callback", None, info)
+
+
+def test_the_teardown_filter_drops_the_results_that_reach_cancelled_futures_only():
+    """A task that finishes as Ctrl-C cancels its future makes the executor's callback fail with
+    InvalidStateError('CANCELLED: ...'); other states and other errors still show."""
+    import concurrent.futures as cf
+
+    from distributed.client import FutureCancelledError
+
+    keep = cluster._CancelledFutureFilter().filter
+    future = cf.Future()
+    future.cancel()
+    with pytest.raises(cf.InvalidStateError) as cancelled:
+        future.set_result(1)  # what distributed.cfexecutor._cascade_future runs into
+    assert not keep(_record(cancelled.value))
+    assert not keep(_record(FutureCancelledError("key", "cancelled")))
+    done = cf.Future()
+    done.set_result(1)
+    with pytest.raises(cf.InvalidStateError) as finished:
+        done.set_result(2)  # a result set twice is a real bug: it shows
+    assert keep(_record(finished.value))
+    assert keep(_record(RuntimeError("CANCELLED")))
