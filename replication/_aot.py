@@ -175,8 +175,11 @@ KERNELS: dict[str, Kernel] = {
             "float64",
             "int64",
             "float64[::1]",
+            "int64",
+            "int64",
+            "float64[:, ::1]",
         ),
-        ("float64[::1]", "float64[::1]", "float64[::1]"),
+        ("none",),
     ),  # fmt: skip
     "sheet_orientations": Kernel(
         "replication.casestudy._sheet",

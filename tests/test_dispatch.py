@@ -5,6 +5,8 @@ import contextlib
 import functools
 import json
 import math
+import os
+import sys
 import time
 
 import numpy as np
@@ -407,6 +409,29 @@ def test_released_kernel_threads_let_the_next_pool_fork():
         assert quiet_worker_context().get_start_method() == ("fork" if linux else "spawn")
     assert _threads.run([lambda: 4, lambda: 5]) == [4, 5]  # and the pool comes back when needed
     release_threads()
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="workers are forked on Linux only")
+def test_a_process_pool_stops_the_idle_kernel_threads_so_its_workers_are_forked():
+    """A jet force leaves the kernels' pool threads idle (the case study warms its kernels
+    so); the GA's process pool must still fork its workers, not spawn them (a second each)."""
+    import threading
+
+    from replication.casestudy.jet import surface_force
+    from replication.casestudy.shapes import pelton_bucket_surface
+    from replication.kernels import release_threads
+    from replication.surfaces import _threads
+
+    if _threads.threads() < 2:
+        pytest.skip("needs 2 kernel threads")
+    release_threads()
+    if threading.active_count() > 1:
+        pytest.skip("other threads are alive in this process: its workers are spawned anyway")
+    surface_force(pelton_bucket_surface())
+    assert _threads._pool is not None  # the force ran on two threads
+    with executor("process", workers=1) as pool:
+        assert pool._mp_context.get_start_method() == "fork"
+        assert pool.submit(os.getpid).result() != os.getpid()
 
 
 # ---- the timing rounds split over the workers --------------------------------------------------

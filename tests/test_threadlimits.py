@@ -1,4 +1,5 @@
-"""BLAS thread limits: executor workers run with one BLAS thread, numba's threads untouched."""
+"""Thread limits: executor workers run with one BLAS thread and one kernel thread; numba's own
+thread settings are untouched."""
 
 import os
 import socket
@@ -7,6 +8,7 @@ import sys
 import pytest
 
 from replication.casestudy.evaluate import executor
+from replication.surfaces._threads import threads
 from replication.threadlimits import BLAS_ENV, blas_threads, single_blas_thread
 
 
@@ -15,9 +17,12 @@ def _worker_state():
     import numba
     import scipy.linalg  # noqa: F401 - a BLAS library loaded after the worker started
 
+    from replication.surfaces._threads import threads
+
     return {
         "pid": os.getpid(),
         "blas": blas_threads(),
+        "kernel threads": threads(),
         "numba": (numba.config.NUMBA_NUM_THREADS, numba.get_num_threads()),
         "env": {name: os.environ.get(name) for name in (*BLAS_ENV, "OMP_NUM_THREADS", "NUMBA_NUM_THREADS")},
     }
@@ -27,6 +32,7 @@ def _check_workers(states, parent_numba):
     for state in states:
         assert state["blas"], "no BLAS library found in the worker"
         assert set(state["blas"].values()) == {1}, state["blas"]
+        assert state["kernel threads"] == 1  # a jet force is not split across threads there
         assert state["numba"] == parent_numba  # numba's own threading is left alone
         assert state["env"]["NUMBA_NUM_THREADS"] == os.environ.get("NUMBA_NUM_THREADS")
 
@@ -58,6 +64,7 @@ def test_process_pool_workers_run_with_one_blas_thread():
     with executor("process", workers=2) as pool:
         states = [f.result() for f in [pool.submit(_worker_state) for _ in range(4)]]
     _check_workers(states, _parent_numba())
+    assert threads() == _parent_numba()[1]  # the calling process keeps its kernel threads
     for state in states:  # later libraries and child processes start with one thread too
         assert all(state["env"][name] == "1" for name in BLAS_ENV)
         assert state["env"]["OMP_NUM_THREADS"] == os.environ.get("OMP_NUM_THREADS")

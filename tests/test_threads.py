@@ -76,3 +76,30 @@ def test_a_second_ctrl_c_while_waiting_is_raised_after_the_wait(two_threads):
 
 def test_results_in_task_order(two_threads):
     assert _threads.run([lambda k=k: k * k for k in range(7)]) == [k * k for k in range(7)]
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork here")
+def test_a_forked_child_starts_a_pool_of_its_own(two_threads):
+    """The parent's pool threads are not copied by a fork: the child must not hand its tasks
+    to the copied pool (they would never run, and the child would wait for ever)."""
+    assert _threads.run([lambda: 1, lambda: 2]) == [1, 2]  # the parent's pool is up
+    assert _threads._pool is not None
+    pid = os.fork()
+    if pid == 0:  # the child: leave with 0 only if both tasks ran, whatever happens
+        code = 1
+        try:
+            signal.alarm(20)  # a hang ends the child (SIGALRM's default is to exit)
+            code = 0 if _threads.run([lambda: 3, lambda: 4]) == [3, 4] else 1
+        finally:
+            os._exit(code)
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            break
+        time.sleep(0.05)
+    else:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+        pytest.fail("the forked child hung in run()")
+    assert os.waitstatus_to_exitcode(status) == 0

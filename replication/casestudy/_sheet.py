@@ -29,11 +29,15 @@ from numba import njit
 from replication import _numbacache
 from replication.casestudy._sheetcodes import (
     BOUNDARY,
+    ROW_FORCE,
+    ROW_OUT,
+    ROW_TALLY,
     SYMMETRY,
     TALLY_MASS_HIT,
     TALLY_MASS_OUT,
     TALLY_MASS_TRAPPED,
     TALLY_PARCELS,
+    TALLY_SIZE,
     TALLY_STREAMLETS_HIT,
 )
 from replication.surfaces._sweephull import orient
@@ -376,9 +380,16 @@ def _spread(nrm, t, speed, cs, weight):
     return (e1x, e1y, e1z), e2
 
 
-@njit(cache=True, error_model="numpy")
-def trace(mesh, half, convex, sx, sy, smass, start, speed, n_dir, min_split, max_steps, loss):
-    """Trace every streamlet of the jet over the surface; return (force, momentum out, tally).
+@njit(cache=True, error_model="numpy", nogil=True)
+def trace(
+    mesh, half, convex, sx, sy, smass, start, speed, n_dir, min_split, max_steps, loss, first, step, rows
+):
+    """Trace the streamlets ``first, first + step, ...`` of the jet over the surface.
+
+    Each streamlet's force, momentum out and tally go to its own row of ``rows``, so pieces
+    of the jet can be traced on several threads at once (the kernel releases the GIL) and
+    the rows added in streamlet order afterwards: the totals do not depend on how the jet
+    was cut into pieces.
 
     Parameters
     ----------
@@ -405,11 +416,14 @@ def trace(mesh, half, convex, sx, sy, smass, start, speed, n_dir, min_split, max
     loss : float64 array, shape (2,)
         The surrogate's losses (crease, re-impact); zeros give the model exactly (see
         :class:`replication.casestudy.jet.SheetLosses`).
+    first, step : int
+        The streamlets traced: ``range(first, len(sx), step)``.
+    rows : float64 array, shape (len(sx), ROW_SIZE)
+        Filled in the traced streamlets' rows (other rows are left as they are): the force of
+        each on the surface (N), the momentum flux it carries away (N) and its tally of mass
+        flows and counts, in the columns that :mod:`._sheetcodes` names.
     """
     x, y, z = mesh[0], mesh[1], mesh[2]
-    force = np.zeros(3)
-    out = np.zeros(3)
-    tally = np.zeros(5)
     zmax = z.max()
     # length tolerance, the same for a surface and its mirror image
     eps = 1e-12 * max(np.abs(x).max(), np.abs(y).max(), np.abs(z).max())
@@ -426,42 +440,51 @@ def trace(mesh, half, convex, sx, sy, smass, start, speed, n_dir, min_split, max
     cap = n_dir + int(1.0 / min_split) + 4
     stack = np.empty((cap, 8))  # position, velocity, mass flow, mass flow of its spread parcel
     stack_t = np.empty(cap, dtype=np.int64)
-    for i in range(sx.shape[0]):
+    f = np.empty(3)  # one streamlet's force, momentum out and tally
+    o = np.empty(3)
+    count = np.empty(TALLY_SIZE)
+    for i in range(first, sx.shape[0], step):
+        f[:] = 0.0
+        o[:] = 0.0
+        count[:] = 0.0
         t0 = start[i]
-        if t0 < 0:
-            continue
-        m0 = smass[i]
-        tally[TALLY_MASS_HIT] += m0
-        tally[TALLY_STREAMLETS_HIT] += 1.0
-        tally[TALLY_PARCELS] += n_dir
-        pz0 = _height(x, y, z, mesh[3], mesh[6], t0, sx[i], sy[i])
-        e1, e2 = _spread(mesh[5], t0, speed, cs, weight)
-        force[2] -= m0 * speed
-        for k in range(n_dir):
-            stack[k, 0], stack[k, 1], stack[k, 2] = sx[i], sy[i], pz0
-            for c in range(3):
-                stack[k, 3 + c] = speed * (cs[k] * e1[c] + sn[k] * e2[c])
-                force[c] -= m0 * weight[k] * stack[k, 3 + c]
-            stack[k, 6] = m0 * weight[k]
-            stack[k, 7] = m0 * weight[k]
-            stack_t[k] = t0
-        _follow(
-            mesh,
-            half,
-            convex,
-            zmax,
-            eps,
-            max_steps,
-            min_split,
-            loss,
-            stack,
-            stack_t,
-            n_dir - 1,
-            force,
-            out,
-            tally,
-        )
-    return force, out, tally
+        if t0 >= 0:
+            m0 = smass[i]
+            count[TALLY_MASS_HIT] += m0
+            count[TALLY_STREAMLETS_HIT] += 1.0
+            count[TALLY_PARCELS] += n_dir
+            pz0 = _height(x, y, z, mesh[3], mesh[6], t0, sx[i], sy[i])
+            e1, e2 = _spread(mesh[5], t0, speed, cs, weight)
+            f[2] -= m0 * speed
+            for k in range(n_dir):
+                stack[k, 0], stack[k, 1], stack[k, 2] = sx[i], sy[i], pz0
+                for c in range(3):
+                    stack[k, 3 + c] = speed * (cs[k] * e1[c] + sn[k] * e2[c])
+                    f[c] -= m0 * weight[k] * stack[k, 3 + c]
+                stack[k, 6] = m0 * weight[k]
+                stack[k, 7] = m0 * weight[k]
+                stack_t[k] = t0
+            _follow(
+                mesh,
+                half,
+                convex,
+                zmax,
+                eps,
+                max_steps,
+                min_split,
+                loss,
+                stack,
+                stack_t,
+                n_dir - 1,
+                f,
+                o,
+                count,
+            )
+        for c in range(3):
+            rows[i, ROW_FORCE + c] = f[c]
+            rows[i, ROW_OUT + c] = o[c]
+        for c in range(TALLY_SIZE):
+            rows[i, ROW_TALLY + c] = count[c]
 
 
 @njit(cache=True, error_model="numpy")

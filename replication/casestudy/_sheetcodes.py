@@ -8,11 +8,16 @@ from __future__ import annotations
 
 __all__ = [
     "BOUNDARY",
+    "ROW_FORCE",
+    "ROW_OUT",
+    "ROW_SIZE",
+    "ROW_TALLY",
     "SYMMETRY",
     "TALLY_MASS_HIT",
     "TALLY_MASS_OUT",
     "TALLY_MASS_TRAPPED",
     "TALLY_PARCELS",
+    "TALLY_SIZE",
     "TALLY_STREAMLETS_HIT",
 ]
 
@@ -20,5 +25,11 @@ __all__ = [
 BOUNDARY = -1
 SYMMETRY = -2
 
-#: Layout of the tally array returned by :func:`._sheet.trace`.
+#: Layout of a row of the tally array that :func:`._sheet.trace` fills (one row per streamlet).
 TALLY_MASS_HIT, TALLY_MASS_OUT, TALLY_MASS_TRAPPED, TALLY_PARCELS, TALLY_STREAMLETS_HIT = range(5)
+TALLY_SIZE = 5
+
+#: Columns of a streamlet's row in the array :func:`._sheet.trace` fills: its force (3), the
+#: momentum flux it carries away (3) and its tally.
+ROW_FORCE, ROW_OUT, ROW_TALLY = 0, 3, 6
+ROW_SIZE = ROW_TALLY + TALLY_SIZE

@@ -23,13 +23,15 @@ import signal
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
+from replication.surfaces._threads import one_thread
 from replication.threadlimits import limit_worker_blas
 
 __all__ = ["EngineReaper", "OneBlasThread", "kill_engine_sessions", "register"]
 
 
 class OneBlasThread(WorkerPlugin):
-    """Calls :func:`replication.threadlimits.limit_worker_blas` in each worker process.
+    """Calls :func:`replication.threadlimits.limit_worker_blas` and
+    :func:`replication.surfaces._threads.one_thread` in each worker process.
 
     Notes
     -----
@@ -41,6 +43,7 @@ class OneBlasThread(WorkerPlugin):
 
     def setup(self, worker) -> None:
         limit_worker_blas()
+        one_thread()
 
 
 def kill_engine_sessions() -> None:

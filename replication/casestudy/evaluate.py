@@ -192,11 +192,13 @@ def check_executor_options(kind: str, workers: int | None = None, scheduler: str
 
 
 def worker_initializer(parent: int | None = None) -> None:
-    """Process-pool initializer: workers ignore SIGINT, unwind on SIGTERM, run one BLAS thread,
-    end with ``parent`` (its pid) and drop the run-directory locks a fork copied.
+    """Process-pool initializer: workers ignore SIGINT, unwind on SIGTERM, run one BLAS thread
+    and one kernel thread, end with ``parent`` (its pid) and drop the run-directory locks a
+    fork copied.
 
     The parent decides when to stop (see :mod:`.interrupts`); the GA's parallelism is one
-    evaluation per worker, so BLAS threads would only compete (see :mod:`replication.threadlimits`).
+    evaluation per worker, so BLAS or kernel threads would only compete (see
+    :mod:`replication.threadlimits`, :func:`replication.surfaces._threads.one_thread`).
     A parent killed outright left its workers waiting forever, holding its run directory's
     lock (:func:`.interrupts.end_with_parent`, :func:`.rundir.close_inherited_locks`).
     """
@@ -209,6 +211,7 @@ def worker_initializer(parent: int | None = None) -> None:
     if hasattr(signal, "pthread_sigmask"):  # POSIX
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
     from replication.casestudy.rundir import close_inherited_locks
+    from replication.surfaces._threads import one_thread
     from replication.threadlimits import limit_worker_blas
 
     ignore_interrupts()
@@ -216,6 +219,7 @@ def worker_initializer(parent: int | None = None) -> None:
         end_with_parent(parent)
     close_inherited_locks()
     limit_worker_blas()
+    one_thread()
     exit_on_terminate()
 
 
@@ -276,6 +280,9 @@ def executor(
     if kind == "serial":
         yield SerialExecutor()
     elif kind == "process":
+        from replication.kernels import release_threads
+
+        release_threads()  # the jet force's kernel threads, idle: the workers can then be forked
         with _resource_tracker_stopped():
             pool = cf.ProcessPoolExecutor(
                 max_workers=n,

@@ -68,7 +68,7 @@ from replication.casestudy.losses import SheetLosses
 from replication.casestudy.mesh import check_domain, check_height_field, weld
 from replication.casestudy.units import to_metres
 from replication.errors import DegenerateInputError, InputError
-from replication.surfaces._threads import frozen
+from replication.surfaces._threads import frozen, run
 from replication.surfaces.interpolate import locate, triangle_neighbors
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -92,6 +92,11 @@ DEFAULT_RESOLUTION = 8
 MIN_SPLIT_FRACTION = 1.0 / 64.0
 #: A parcel is stopped (trapped) after this many events per triangle of the surface.
 MAX_STEPS_PER_TRIANGLE = 8
+#: Pieces the jet's streamlets are cut into (every PIECES-th streamlet in each), traced on up
+#: to as many threads (:func:`replication.surfaces._threads.run`). Each streamlet's force is
+#: summed on its own and the streamlets are added in order, so the result does not depend
+#: on the pieces or the threads.
+PIECES = 2
 
 
 @dataclass(frozen=True, eq=False)
@@ -205,6 +210,10 @@ def jet_streamlets(config: JetConfig, resolution: int = DEFAULT_RESOLUTION) -> t
     return pos, mass
 
 
+#: The thin-sheet model exactly (no surrogate losses), as the tracer takes it (never written).
+_NO_LOSSES = SheetLosses().as_array()
+
+
 @functools.cache
 def _default_config() -> JetConfig:
     """The paper's jet, validated once (frozen: one instance serves every call)."""
@@ -223,12 +232,32 @@ def _trace(
     """Run the compiled model on a validated mesh (metres, CCW triangles; their neighbours,
     if known, e.g. an ADT surface's own adjacency)."""
     half = not config.full_jet
+    given = triangles  # an ADT surface's are int32, as the point location takes them
     triangles = frozen(triangles, np.int64)
     raw = triangle_neighbors(triangles) if neighbors is None else neighbors
     mesh, points = kernel("sheet_prepare")(frozen(points, np.float64), triangles, frozen(raw, np.int64), half)
     xy, mass = jet_streamlets(config, resolution)
-    start = locate(points[:, :2], triangles, xy, raw, convex=convex)
-    if not np.any(start >= 0):  # it misses: tell a jet elsewhere from one too coarse for the surface
+    start = locate(points[:, :2], given, xy, raw, convex=convex)
+    max_steps = MAX_STEPS_PER_TRIANGLE * triangles.shape[0] + 64
+    sx, sy = np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1])
+    jet = (sx, sy, frozen(mass), start.astype(np.int64), float(config.velocity), 4 * resolution)
+    loss = _NO_LOSSES if losses is None else losses.as_array()
+    rows = np.zeros((sx.size, codes.ROW_SIZE))
+    trace = kernel("sheet_trace")
+    common = (mesh, half, bool(convex), *jet, MIN_SPLIT_FRACTION, max_steps, loss)
+    pieces = [functools.partial(trace, *common, j, PIECES, rows) for j in range(PIECES)]
+    if hasattr(trace, "py_func"):  # numba's kernel releases the GIL: the pieces run side by side
+        run(pieces)
+    else:  # the ahead-of-time kernel holds it
+        for piece in pieces:
+            piece()
+    # the streamlets' rows added in order: the same sums whatever ran the pieces
+    total = rows.sum(axis=0)
+    values = total.tolist()
+    if not all(map(math.isfinite, values[: codes.ROW_TALLY])):  # a safety net, never seen
+        raise DegenerateInputError("the jet force is not finite: the surface has degenerate facets")
+    tally = values[codes.ROW_TALLY :]
+    if not tally[codes.TALLY_STREAMLETS_HIT]:  # it misses: tell a jet elsewhere from one too coarse
 
         def streamlets(finer: int) -> np.ndarray:
             return xy if finer == resolution else jet_streamlets.__wrapped__(config, finer)[0]  # not cached
@@ -244,23 +273,16 @@ def _trace(
             MAX_RESOLUTION,
             stacklevel=3,
         )
-    max_steps = MAX_STEPS_PER_TRIANGLE * triangles.shape[0] + 64
-    sx, sy = np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1])
-    jet = (sx, sy, frozen(mass), start.astype(np.int64), float(config.velocity), 4 * resolution)
-    loss = (losses or SheetLosses()).as_array()
-    trace = kernel("sheet_trace")
-    force, out, tally = trace(mesh, half, bool(convex), *jet, MIN_SPLIT_FRACTION, max_steps, loss)
-    if not (np.all(np.isfinite(force)) and np.all(np.isfinite(out))):  # a safety net, never seen
-        raise DegenerateInputError("the jet force is not finite: the surface has degenerate facets")
-    force.flags.writeable = False
-    out.flags.writeable = False
+    total.flags.writeable = False  # before the views are taken: they inherit it
+    force = total[codes.ROW_FORCE : codes.ROW_FORCE + 3]
+    out = total[codes.ROW_OUT : codes.ROW_OUT + 3]
     return JetForce(
         force=force,
         momentum_out=out,
         mass_flow_total=config.mass_flow,
-        mass_flow_hit=float(tally[codes.TALLY_MASS_HIT]),
-        mass_flow_out=float(tally[codes.TALLY_MASS_OUT]),
-        mass_flow_trapped=float(tally[codes.TALLY_MASS_TRAPPED]),
+        mass_flow_hit=tally[codes.TALLY_MASS_HIT],
+        mass_flow_out=tally[codes.TALLY_MASS_OUT],
+        mass_flow_trapped=tally[codes.TALLY_MASS_TRAPPED],
         n_streamlets=int(mass.size),
         n_streamlets_hit=int(tally[codes.TALLY_STREAMLETS_HIT]),
         n_parcels=int(tally[codes.TALLY_PARCELS]),
@@ -367,7 +389,8 @@ def surface_force(
             f"got depth axis {surface.depth_axis_name}; build it with adt(points, depth='z')"
         )
     pts = to_metres(surface.points)
-    if not np.all(np.isfinite(pts)):
+    bounds = (pts.min(axis=0), pts.max(axis=0))  # not finite when a coordinate is not (nan included)
+    if not all(map(math.isfinite, [*bounds[0].tolist(), *bounds[1].tolist()])):
         raise InputError("surface points must be finite")
-    check_domain(pts, config)
+    check_domain(pts, config, bounds=bounds)
     return _trace(pts, surface.triangles, True, config, resolution, surface.neighbors)

@@ -20,15 +20,27 @@ from replication.surfaces._threads import frozen
 __all__ = ["check_domain", "check_height_field", "surface_signature", "weld"]
 
 
-def check_domain(points: np.ndarray, config: JetConfig, used: np.ndarray | None = None) -> None:
-    """Raise when the surface (metres; the vertices ``used``) leaves the domain or crosses y = 0."""
+def check_domain(
+    points: np.ndarray,
+    config: JetConfig,
+    used: np.ndarray | None = None,
+    *,
+    bounds: tuple[np.ndarray, np.ndarray] | None = None,
+) -> None:
+    """Raise when the surface (metres; the vertices ``used``) leaves the domain or crosses y = 0.
+
+    ``bounds``: the points' smallest and largest coordinates, when the caller has them (all
+    vertices are then checked).
+    """
     index = None if used is None else np.asarray(used)
     if index is not None:
         points = points[index]
     # the bounds decide; the vertex to name is looked for only when they fail (the GA calls
     # this once per evaluation: one min and one max, not a mask over every coordinate)
-    lo, hi = points.min(axis=0), points.max(axis=0)
-    span = float((hi - lo).max()) or 1.0
+    if bounds is None or index is not None:
+        bounds = points.min(axis=0), points.max(axis=0)
+    lo, hi = bounds[0].tolist(), bounds[1].tolist()
+    span = max(b - a for a, b in zip(lo, hi)) or 1.0
     tol = 1e-9 * span
     if not config.full_jet and lo[1] < -tol:
         i = int(points[:, 1].argmin())
@@ -40,10 +52,11 @@ def check_domain(points: np.ndarray, config: JetConfig, used: np.ndarray | None 
     if config.domain is None:
         return
     length, width, depth = config.domain
-    lower = np.array([0.0, -width if config.full_jet else 0.0, 0.0]) - tol
-    upper = np.array([length, width, depth]) + tol
-    if np.all(lo >= lower) and np.all(hi <= upper):
+    lower = [-tol, (-width if config.full_jet else 0.0) - tol, -tol]
+    upper = [length + tol, width + tol, depth + tol]
+    if all(a >= b for a, b in zip(lo, lower)) and all(a <= b for a, b in zip(hi, upper)):
         return
+    lower, upper = np.array(lower), np.array(upper)
     outside = np.flatnonzero(((points < lower) | (points > upper)).any(axis=1))
     if not outside.size:  # bounds that are not numbers: the callers refuse those first
         return

@@ -3,11 +3,14 @@
 The number of threads is numba's (``numba.set_num_threads``, ``NUMBA_NUM_THREADS``), so one
 setting governs every parallel kernel of the package. Work is always split into the same
 pieces whatever the thread count, and each piece writes only its own output, so results
-never depend on how many threads ran them.
+never depend on how many threads ran them. Executor workers run every kernel on one thread
+(:func:`one_thread`). A forked child drops the pool it copied (its threads were not copied)
+and starts its own when it needs one.
 """
 
 from __future__ import annotations
 
+import os
 import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor, wait
@@ -15,10 +18,22 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["frozen", "release", "run", "threads"]
+__all__ = ["frozen", "one_thread", "release", "run", "threads"]
 
 _pool: ThreadPoolExecutor | None = None
 _lock = threading.Lock()
+_one = False  # set in executor workers: their parallelism is the executor's
+
+
+def _forget_pool() -> None:
+    """In a forked child: the parent's pool threads were not copied, so its pool is dropped."""
+    global _pool, _lock
+    _pool = None
+    _lock = threading.Lock()  # it may have been held by another thread at the fork
+
+
+if hasattr(os, "register_at_fork"):  # POSIX
+    os.register_at_fork(after_in_child=_forget_pool)
 
 
 def frozen(a: np.ndarray, dtype=None) -> np.ndarray:
@@ -40,10 +55,24 @@ def frozen(a: np.ndarray, dtype=None) -> np.ndarray:
 
 
 def threads() -> int:
-    """numba's thread count (the threading layer is started on first use)."""
+    """numba's thread count (the threading layer is started on first use); 1 in a process
+    that called :func:`one_thread`."""
+    if _one:
+        return 1
     import numba
 
     return int(numba.get_num_threads())
+
+
+def one_thread() -> None:
+    """Run this process's kernels on its own thread from now on (an executor worker's setup).
+
+    The GA's parallelism is one fitness evaluation per worker process (paper section 6); a
+    worker that also split each evaluation across threads would only compete with the other
+    workers for the cores.
+    """
+    global _one
+    _one = True
 
 
 def release() -> None:
