@@ -9,16 +9,32 @@ from replication.casestudy.shapes import pelton_bucket_surface
 
 from .common import quiet
 
+#: The jet force's compiled kernels (replication._aot names).
+_JET_KERNELS = ("sheet_prepare", "locate", "sheet_trace")
+
 
 class JetForce:
-    """One evaluation of the force model on 101-point surfaces (target: at most 5 ms)."""
+    """One evaluation of the force model on 101-point surfaces, by either compiled tracer.
 
-    params = [["pelton bucket", "random"]]
-    param_names = ["surface"]
+    ``ahead-of-time``: the kernels compiled when the package was built, which a process runs
+    until it has loaded numba (a script's calls, the ``force`` command); they hold the GIL,
+    so the two pieces of the jet run one after the other. ``numba``: numba's kernels, which
+    the GA, ``reproduce`` and the tests load (``warm_up``); the pieces run on two threads.
+    asv runs each parameter combination in a process of its own.
+    """
 
-    def setup(self, surface):
+    params = [["pelton bucket", "random"], ["ahead-of-time", "numba"]]
+    param_names = ["surface", "kernel"]
+    timeout = 300  # loading numba's kernels compiles them in a fresh environment (about 30 s)
+
+    def setup(self, surface, kernel):
         quiet()
+        from replication import _aot
         from replication.surfaces import adt
+
+        if kernel == "numba":
+            for name in _JET_KERNELS:
+                _aot.load_numba(name)
 
         if surface == "pelton bucket":
             self.surface = pelton_bucket_surface()
@@ -26,11 +42,14 @@ class JetForce:
             genome = np.random.default_rng(1234).integers(0, [37, 31, 14] * 101)
             self.surface = adt(points_from_genome(genome, GAConfig()), depth="z")
         surface_force(self.surface)
+        numba_runs = [getattr(_aot.kernel(name), "py_func", None) is not None for name in _JET_KERNELS]
+        if numba_runs != [kernel == "numba"] * len(_JET_KERNELS):
+            raise NotImplementedError(f"not the {kernel} kernels (the ahead-of-time module is not built?)")
 
-    def time_surface_force(self, surface):
+    def time_surface_force(self, surface, kernel):
         surface_force(self.surface)
 
-    def track_axial_force(self, surface):
+    def track_axial_force(self, surface, kernel):
         return surface_force(self.surface).axial_force
 
     track_axial_force.unit = "N"
