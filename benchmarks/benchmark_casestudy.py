@@ -42,7 +42,7 @@ class JetForce:
             genome = np.random.default_rng(1234).integers(0, [37, 31, 14] * 101)
             self.surface = adt(points_from_genome(genome, GAConfig()), depth="z")
         surface_force(self.surface)
-        numba_runs = [getattr(_aot.kernel(name), "py_func", None) is not None for name in _JET_KERNELS]
+        numba_runs = [_aot.is_numba(_aot.kernel(name)) for name in _JET_KERNELS]
         if numba_runs != [kernel == "numba"] * len(_JET_KERNELS):
             raise NotImplementedError(f"not the {kernel} kernels (the ahead-of-time module is not built?)")
 

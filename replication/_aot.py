@@ -51,6 +51,7 @@ __all__ = [
     "MODULE",
     "Kernel",
     "compiled",
+    "is_numba",
     "kernel",
     "load_numba",
     "numba_signature",
@@ -282,6 +283,12 @@ def kernel(name: str) -> Callable:
     if compiled() is not None:
         return _checked(name)
     return _jit(name)
+
+
+def is_numba(code: Callable) -> bool:
+    """Whether ``code`` (from :func:`kernel`) is numba's kernel, which releases the GIL where it
+    was compiled with ``nogil``, rather than the ahead-of-time one, which holds it."""
+    return getattr(code, "py_func", None) is not None
 
 
 def _items(text: str) -> list[str] | None:

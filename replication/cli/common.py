@@ -361,7 +361,7 @@ def drawing_saved_data(out: Any) -> Iterator[None]:
     """Around drawing a report from the data just saved into ``out/data``: an error (a full
     disk) leaves the page and figures of an earlier run beside the new data, or some of them
     redrawn, so its one line also says that the data are saved and how to draw the report;
-    so does a line before the command's last after a Ctrl-C (sph and validate-jet said nothing)."""
+    so does a line before the command's last after a Ctrl-C."""
     from pathlib import Path
 
     from replication.errors import ReplicationError
