@@ -83,7 +83,7 @@ def test_a_forked_child_starts_a_pool_of_its_own(two_threads):
     """The parent's pool threads are not copied by a fork: the child must not hand its tasks
     to the copied pool (they would never run, and the child would wait for ever)."""
     assert _threads.run([lambda: 1, lambda: 2]) == [1, 2]  # the parent's pool is up
-    assert _threads._pool is not None
+    assert _threads.pool_threads() > 0
     pid = os.fork()
     if pid == 0:  # the child: leave with 0 only if both tasks ran, whatever happens
         code = 1
@@ -103,3 +103,63 @@ def test_a_forked_child_starts_a_pool_of_its_own(two_threads):
         os.waitpid(pid, 0)
         pytest.fail("the forked child hung in run()")
     assert os.waitstatus_to_exitcode(status) == 0
+
+
+def test_a_wait_cut_short_after_its_signal_leaves_the_pool_thread_usable():
+    """A Ctrl-C that lands just after a wait took the "done" signal, or just before it, is
+    waited again; either way the next job's wait must wait for that job, not take an old
+    signal for its end (and the thread must not fail releasing a lock that is free)."""
+    helper = _threads._Helper()
+    try:
+        helper.start(lambda: None)
+        helper.wait()
+        helper._done.release()  # the state a wait interrupted before taking the signal leaves
+        finished = threading.Event()
+
+        def slow():
+            time.sleep(0.2)
+            finished.set()
+
+        helper.start(slow)
+        helper.wait()
+        assert finished.is_set()
+        assert helper.error is None
+        helper._done.release()  # again, and now the job ends before the wait begins
+        helper.start(lambda: None)
+        time.sleep(0.1)
+        helper.wait()
+        assert helper._thread.is_alive()  # it did not fail releasing its signal
+        helper.start(finished.clear)
+        helper.wait()
+        assert not finished.is_set()
+    finally:
+        helper.stop()
+
+
+def test_an_error_in_a_pool_thread_is_raised_by_run(two_threads):
+    caller = threading.current_thread()
+
+    def fails_on_the_pool_thread():
+        if threading.current_thread() is not caller:
+            raise ValueError("failed on the pool thread")
+        time.sleep(0.2)  # the pool thread has taken the other task by now
+
+    with pytest.raises(ValueError, match="pool thread"):
+        _threads.run([fails_on_the_pool_thread, fails_on_the_pool_thread])
+    assert _threads.run([lambda: 1, lambda: 2]) == [1, 2]  # and the pool still works
+
+
+def test_runs_from_several_threads_at_once_each_get_their_own_results(two_threads):
+    outcomes = {}
+
+    def caller(name):
+        outcomes[name] = [_threads.run([lambda k=k: (name, k) for k in range(5)]) for _ in range(50)]
+
+    callers = [threading.Thread(target=caller, args=(name,)) for name in "abc"]
+    for thread in callers:
+        thread.start()
+    for thread in callers:
+        thread.join()
+    for name in "abc":
+        assert outcomes[name] == [[(name, k) for k in range(5)]] * 50
+    assert _threads.pool_threads() <= _threads.threads() - 1  # no pool thread per caller
