@@ -7,7 +7,13 @@ from scipy.spatial import Delaunay, cKDTree
 
 from geometry import orient_q
 from replication.surfaces import adt, random_cloud
-from replication.surfaces.interpolate import interpolate_linear, locate, nearest_vertices, triangle_neighbors
+from replication.surfaces.interpolate import (
+    interpolate_linear,
+    locate,
+    locate_valid,
+    nearest_vertices,
+    triangle_neighbors,
+)
 
 
 @pytest.fixture(scope="module")
@@ -28,6 +34,9 @@ def test_locate_agrees_with_brute_force(surface):
     assert np.array_equal(found, locate(uv, surface.triangles, queries))  # own vs sorted adjacency
     inside = Delaunay(uv).find_simplex(queries) >= 0
     assert np.array_equal(found >= 0, inside)
+    for convex in (True, False):  # the unchecked walk the jet model takes: the same triangles
+        unchecked = locate_valid(uv, surface.triangles, surface.neighbors, queries, convex=convex)
+        assert np.array_equal(unchecked, found)
     for q, t in zip(queries[found >= 0], found[found >= 0]):
         a, b, c = uv[surface.triangles[t]].tolist()
         assert orient_q(a, b, q) >= 0 and orient_q(b, c, q) >= 0 and orient_q(c, a, q) >= 0

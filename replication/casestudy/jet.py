@@ -69,7 +69,7 @@ from replication.casestudy.mesh import check_domain, check_height_field, weld
 from replication.casestudy.units import to_metres
 from replication.errors import DegenerateInputError, InputError
 from replication.surfaces._threads import frozen, run
-from replication.surfaces.interpolate import locate, triangle_neighbors
+from replication.surfaces.interpolate import locate_valid, triangle_neighbors
 
 if TYPE_CHECKING:  # pragma: no cover
     from replication.surfaces import Surface
@@ -210,6 +210,16 @@ def jet_streamlets(config: JetConfig, resolution: int = DEFAULT_RESOLUTION) -> t
     return pos, mass
 
 
+@functools.lru_cache(maxsize=32)
+def _streamlet_arrays(
+    config: JetConfig, resolution: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`jet_streamlets` as the tracer takes them: positions, x and y (contiguous;
+    writable, as its compiled signature has them, and never written) and mass flows."""
+    xy, mass = jet_streamlets(config, resolution)
+    return xy, np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1]), frozen(mass)
+
+
 #: The thin-sheet model exactly (no surrogate losses), as the tracer takes it (never written).
 _NO_LOSSES = SheetLosses().as_array()
 
@@ -236,11 +246,10 @@ def _trace(
     triangles = frozen(triangles, np.int64)
     raw = triangle_neighbors(triangles) if neighbors is None else neighbors
     mesh, points = kernel("sheet_prepare")(frozen(points, np.float64), triangles, frozen(raw, np.int64), half)
-    xy, mass = jet_streamlets(config, resolution)
-    start = locate(points[:, :2], given, xy, raw, convex=convex)
+    xy, sx, sy, mass = _streamlet_arrays(config, resolution)
+    start = locate_valid(points[:, :2], given, raw, xy, convex=convex)
     max_steps = MAX_STEPS_PER_TRIANGLE * triangles.shape[0] + 64
-    sx, sy = np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1])
-    jet = (sx, sy, frozen(mass), start.astype(np.int64), float(config.velocity), 4 * resolution)
+    jet = (sx, sy, mass, start.astype(np.int64), float(config.velocity), 4 * resolution)
     loss = _NO_LOSSES if losses is None else losses.as_array()
     rows = np.zeros((sx.size, codes.ROW_SIZE))
     trace = kernel("sheet_trace")

@@ -27,7 +27,14 @@ from replication._aot import kernel
 from replication.errors import InputError
 from replication.surfaces._threads import frozen
 
-__all__ = ["triangle_neighbors", "locate", "interpolate_linear", "nearest_vertices", "fill_nearest"]
+__all__ = [
+    "triangle_neighbors",
+    "locate",
+    "locate_valid",
+    "interpolate_linear",
+    "nearest_vertices",
+    "fill_nearest",
+]
 
 
 def triangle_neighbors(triangles: np.ndarray) -> np.ndarray:
@@ -111,6 +118,21 @@ def locate(
         searches every triangle before declaring a query outside (for arbitrary meshes).
     """
     return _walk(uv, triangles, queries, neighbors, convex)[0]
+
+
+def locate_valid(
+    uv: np.ndarray, triangles: np.ndarray, neighbors: np.ndarray, queries: np.ndarray, *, convex: bool
+) -> np.ndarray:
+    """:func:`locate` without its checks of the mesh, for meshes known to be valid (a
+    :class:`~replication.surfaces.Surface`'s arrays, the jet model's checked meshes): in-range
+    triangles and neighbours, vertex positions of shape (n, 2), queries of shape (k, 2).
+    The checks cost twice the walk itself on the jet's hundred streamlets."""
+    queries = frozen(queries, np.float64)
+    found = np.empty(queries.shape[0], dtype=np.int32)
+    left = np.empty(queries.shape[0], dtype=np.int32)
+    triangles, neighbors = _int32(triangles), _int32(neighbors)
+    kernel("locate")(frozen(uv, np.float64), triangles, neighbors, queries, not convex, found, left)
+    return found
 
 
 def _walk(uv, triangles, queries, neighbors, convex):
