@@ -163,3 +163,17 @@ def test_runs_from_several_threads_at_once_each_get_their_own_results(two_thread
     for name in "abc":
         assert outcomes[name] == [[(name, k) for k in range(5)]] * 50
     assert _threads.pool_threads() <= _threads.threads() - 1  # no pool thread per caller
+
+
+def test_a_thread_the_system_refuses_leaves_the_run_to_fewer_threads(two_threads, monkeypatch):
+    _threads.release()
+
+    def refuse(self, *args, **kwargs):
+        raise RuntimeError("can't start new thread")
+
+    monkeypatch.setattr(threading.Thread, "start", refuse)
+    assert _threads.run([lambda k=k: k for k in range(4)]) == [0, 1, 2, 3]
+    assert _threads.pool_threads() == 0  # counted only once started
+    monkeypatch.undo()
+    assert _threads.run([lambda k=k: k for k in range(4)]) == [0, 1, 2, 3]
+    assert _threads.pool_threads() == 1
