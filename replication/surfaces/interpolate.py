@@ -127,12 +127,17 @@ def locate_valid(
     :class:`~replication.surfaces.Surface`'s arrays, the jet model's checked meshes): in-range
     triangles and neighbours, vertex positions of shape (n, 2), queries of shape (k, 2).
     The checks cost twice the walk itself on the jet's hundred streamlets."""
-    queries = frozen(queries, np.float64)
+    xy, queries = frozen(uv, np.float64), frozen(queries, np.float64)
+    return _located(xy, _int32(triangles), _int32(neighbors), queries, convex)[0]
+
+
+def _located(xy, triangles, neighbors, queries, convex):
+    """The walk's kernel on prepared arrays: each query's triangle (-1 outside) and, for one
+    outside, the triangle its walk left through (-1 otherwise)."""
     found = np.empty(queries.shape[0], dtype=np.int32)
     left = np.empty(queries.shape[0], dtype=np.int32)
-    triangles, neighbors = _int32(triangles), _int32(neighbors)
-    kernel("locate")(frozen(uv, np.float64), triangles, neighbors, queries, not convex, found, left)
-    return found
+    kernel("locate")(xy, triangles, neighbors, queries, not convex, found, left)
+    return found, left
 
 
 def _walk(uv, triangles, queries, neighbors, convex):
@@ -145,9 +150,7 @@ def _walk(uv, triangles, queries, neighbors, convex):
     else:
         nbr = _int32(neighbors)
         _check_neighbors(triangles, nbr)
-    found = np.empty(queries.shape[0], dtype=np.int32)
-    left = np.empty(queries.shape[0], dtype=np.int32)
-    kernel("locate")(xy, triangles, nbr, queries, not convex, found, left)
+    found, left = _located(xy, triangles, nbr, queries, convex)
     return found, left, triangles, nbr, queries, xy
 
 
