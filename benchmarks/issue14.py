@@ -24,13 +24,41 @@ _PEAK = """
 import json, resource, sys
 import numpy as np
 from replication.surfaces import adt
+
+
+def high_water():
+    # this process's own peak: on Linux, ru_maxrss carries the parent's peak over fork and
+    # exec (a parent holding a 1e7 cloud read as this child's 'peak'); VmHWM is the peak of
+    # the address space the exec made
+    try:
+        with open("/proc/self/status") as status:
+            for line in status:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak if sys.platform == "darwin" else peak * 1024  # macOS counts bytes, the others KiB
+
+
 cloud = np.load(sys.argv[1])  # the cloud only: its generation has temporaries of its own
-before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+before = high_water()
 adt(cloud)
-after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-gib = {"cloud_gib": cloud.nbytes / 2**30, "before_gib": before / 2**20, "peak_gib": after / 2**20}
+after = high_water()
+gib = {"cloud_gib": cloud.nbytes / 2**30, "before_gib": before / 2**30, "peak_gib": after / 2**30}
 print(json.dumps(gib))
 """
+
+
+def adt_peak(cloud: np.ndarray) -> dict[str, float]:
+    """Peak resident size (GiB) of a fresh process that loads ``cloud`` and builds its ADT
+    surface: ``peak_gib``, with ``before_gib`` (the process with the cloud loaded) and
+    ``cloud_gib``. The caller's own memory does not count, however large."""
+    with tempfile.TemporaryDirectory() as scratch:
+        path = f"{scratch}/cloud.npy"
+        np.save(path, cloud)
+        done = subprocess.run([sys.executable, "-c", _PEAK, path], capture_output=True, text=True, check=True)
+    return json.loads(done.stdout)
 
 
 def _cloud(n: int) -> np.ndarray:
@@ -106,13 +134,7 @@ def main(argv: list[str] | None = None) -> int:
         ten = _cloud(10_000_000)
         adt(ten)
         t = _pairs(lambda: adt(ten), lambda: adt(million), max(3, args.repeats // 2))
-        with tempfile.TemporaryDirectory() as scratch:
-            path = f"{scratch}/cloud.npy"
-            np.save(path, ten)
-            done = subprocess.run(
-                [sys.executable, "-c", _PEAK, path], capture_output=True, text=True, check=True
-            )
-        peak = json.loads(done.stdout)
+        peak = adt_peak(ten)
         measured = (
             f"{_summary(t['first'])} s; peak {peak['peak_gib']:.2f} GiB (cloud {peak['cloud_gib']:.2f} GiB, "
             f"process with the cloud loaded {peak['before_gib']:.2f} GiB)"

@@ -91,3 +91,20 @@ def test_performance_report_from_asv_results(asv_results, tmp_path, capsys, monk
     code = main(["report", "--performance", "--asv-results", "nowhere", "--output-dir", str(tmp_path)])
     assert code != 0 and "no asv results in nowhere" in capsys.readouterr().err
     assert (tmp_path / "performance.md").read_text() == text
+
+
+def test_the_side_by_side_peak_is_the_child_s_own_however_large_the_caller(monkeypatch):
+    """On Linux a child's ru_maxrss starts at its parent's peak (it survives fork and exec):
+    a caller holding a 1e7-point cloud made the 1e7 row read the caller's memory."""
+    import numpy as np
+
+    from replication.surfaces import random_cloud
+
+    monkeypatch.syspath_prepend(str(ROOT))
+    from benchmarks.issue14 import adt_peak
+
+    ballast = np.ones(2**30 // 16)  # 0.5 GiB, every page touched
+    peak = adt_peak(random_cloud(1000, rng=np.random.default_rng(3)))
+    assert ballast.sum() == ballast.size
+    assert 0 < peak["before_gib"] <= peak["peak_gib"] < 0.45, peak
+    assert peak["cloud_gib"] == 1000 * 3 * 8 / 2**30
