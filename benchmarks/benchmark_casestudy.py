@@ -17,9 +17,10 @@ class JetForce:
     """One evaluation of the force model on 101-point surfaces, by either compiled tracer.
 
     ``ahead-of-time``: the kernels compiled when the package was built, which a process runs
-    until it has loaded numba (a script's calls, the ``force`` command); they hold the GIL,
-    so the two pieces of the jet run one after the other. ``numba``: numba's kernels, which
-    the GA, ``reproduce`` and the tests load (``warm_up``); the pieces run on two threads.
+    until it has loaded numba (a script's calls, the ``force`` command). ``numba``: numba's
+    kernels, which the GA, ``reproduce`` and the tests load (``warm_up``). Either runs the
+    jet's two pieces on two threads (the ahead-of-time kernels held the GIL, and ran them one
+    after the other, up to 59f22e5).
     asv runs each parameter combination in a process of its own.
     """
 

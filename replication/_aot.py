@@ -8,18 +8,19 @@ call tree of every compiled function, so deep kernels compile slowly). The packa
 into a small extension module, ``_replication_kernels``, that needs only numpy at run time.
 It is a top-level module so that a checkout run from its own directory (the test suite) finds
 the installed one; its code is generic for the architecture (x86-64, say), not tuned to the
-building machine's CPU, so an install copied to another machine still runs. Unlike numba's
-kernels it holds the GIL while it runs: threads calling ``adt()`` on small clouds take turns
-until numba is loaded.
+building machine's CPU, so an install copied to another machine still runs. Like numba's
+kernels (all compiled with ``nogil=True``) it releases the GIL while it runs, so threads
+calling ``adt()`` on small clouds run side by side, and a jet force's two pieces run on two
+threads (:func:`releases_gil`).
 
 Which code serves a call of :func:`kernel` (the choice never changes a result: both are
 compiled from the same Python source and agree bit for bit, which the tests check):
 
 1. numba's JIT kernel when it is already loaded in this process (after
    :func:`replication.kernels.warm_up`, or after any earlier call compiled or loaded it):
-   once numba's start-up is paid for, its code is the faster one (48 against 56 us for the
-   200-point triangulation kernel; 1.49-2.16 against 1.72-2.35 ms for jet forces on four
-   101-point surfaces; on this project's machine);
+   once numba's start-up is paid for, its code is the faster one, tuned to this CPU (26
+   against 30 us for the 200-point triangulation kernel; 0.33-0.53 against 0.38-0.59 ms for
+   jet forces on four 101-point surfaces, two threads each; on this project's machine);
 2. otherwise the ahead-of-time kernel, when the extension module exists and was built from
    these very sources (a digest of them is compiled into it, so an edited checkout never runs
    stale code);
@@ -55,6 +56,7 @@ __all__ = [
     "kernel",
     "load_numba",
     "numba_signature",
+    "releases_gil",
     "source_digest",
     "stale",
 ]
@@ -286,9 +288,20 @@ def kernel(name: str) -> Callable:
 
 
 def is_numba(code: Callable) -> bool:
-    """Whether ``code`` (from :func:`kernel`) is numba's kernel, which releases the GIL where it
-    was compiled with ``nogil``, rather than the ahead-of-time one, which holds it."""
+    """Whether ``code`` (from :func:`kernel`) is numba's kernel rather than the ahead-of-time one."""
     return getattr(code, "py_func", None) is not None
+
+
+def releases_gil(code: Callable) -> bool:
+    """Whether ``code`` (from :func:`kernel`) releases the GIL while it runs, so that other
+    threads' calls run side by side with it: numba's kernel where it was compiled with
+    ``nogil=True``, and every ahead-of-time kernel (the builder compiles them to release it,
+    and refuses a kernel of the table whose numba kernel does not).
+    """
+    options = getattr(code, "targetoptions", None)  # numba's dispatcher
+    if options is not None:
+        return bool(options.get("nogil", False))
+    return bool(getattr(code, "releases_gil", False))
 
 
 def _items(text: str) -> list[str] | None:
@@ -366,6 +379,7 @@ def _checked(name: str) -> Callable:
         return _jit(name)(*args)
 
     call.__name__ = call.__qualname__ = name
+    call.releases_gil = True  # see _aotbuild: both the compiled kernel and numba's fallback do
     call.__doc__ = f"Ahead-of-time {spec.module}.{spec.function} (argument types checked)."
     return call
 

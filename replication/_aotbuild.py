@@ -11,9 +11,10 @@ Needs numba, numpy and a C compiler; compiling takes about 40 s of one core.
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from replication._aot import KERNELS, MODULE, source_digest
@@ -48,14 +49,47 @@ def build(target: Path) -> None:
     # instruction its CPU lacks (host-specific code measured only 7 % faster)
     for name, spec in KERNELS.items():
         dispatcher = getattr(importlib.import_module(spec.module), spec.function)
+        if not dispatcher.targetoptions.get("nogil", False):
+            raise ValueError(f"kernel {name!r} ({spec.module}.{spec.function}) is not nogil=True")
         cc.export(name, numba_signature(spec))(_calling(dispatcher, len(spec.args)))
     cc.export("source_digest", types.int64())(_constant(source_digest()))
-    with tempfile.TemporaryDirectory(prefix="replication-aot-") as scratch:
+    with tempfile.TemporaryDirectory(prefix="replication-aot-") as scratch, _releasing_gil():
         tempfile.tempdir, saved = scratch, tempfile.tempdir  # pycc's own scratch goes in here
         try:
             cc.compile()
         finally:
             tempfile.tempdir = saved
+
+
+@contextlib.contextmanager
+def _releasing_gil() -> Iterator[None]:
+    """While pycc compiles, every exported function's Python wrapper releases the GIL around
+    the kernel, as numba's ``nogil=True`` does for its JIT kernels (the same compiler flag,
+    ``release_gil``, which pycc has no option for): the ahead-of-time pieces of a jet force then
+    run side by side on the package's thread pool, as numba's do.
+
+    Raises
+    ------
+    RuntimeError
+        When this numba's pycc does not compile through ``compile_extra`` (the build then goes
+        on without ahead-of-time kernels rather than build kernels that hold the GIL).
+    """
+    from numba.pycc import compiler
+
+    original = getattr(compiler, "compile_extra", None)
+    if original is None:
+        raise RuntimeError("this numba's pycc has no compile_extra to compile GIL-releasing wrappers with")
+
+    def compile_extra(typingctx, targetctx, func, args, return_type, flags, *rest, **options):
+        flags = flags.copy()
+        flags.release_gil = True
+        return original(typingctx, targetctx, func, args, return_type, flags, *rest, **options)
+
+    compiler.compile_extra = compile_extra
+    try:
+        yield
+    finally:
+        compiler.compile_extra = original
 
 
 def _calling(dispatcher, arity: int) -> Callable:

@@ -178,3 +178,28 @@ def test_a_thread_the_system_refuses_leaves_the_run_to_fewer_threads(two_threads
     monkeypatch.undo()
     assert _threads.run([lambda k=k: k for k in range(4)]) == [0, 1, 2, 3]
     assert _threads.pool_threads() == 1
+
+
+@pytest.mark.parametrize("setting", [None, "1", "3", "", "two", "0"])
+def test_without_numba_the_count_is_the_one_numba_starts_with(setting, monkeypatch):
+    """A process that has not imported numba (the ahead-of-time kernels serve it) splits its
+    work as numba would: NUMBA_NUM_THREADS when it is a count, else the CPUs it may run on."""
+    import sys
+
+    if setting is None:
+        monkeypatch.delenv("NUMBA_NUM_THREADS", raising=False)
+    else:
+        monkeypatch.setenv("NUMBA_NUM_THREADS", setting)
+    monkeypatch.delitem(sys.modules, "numba")  # as if never imported (restored afterwards)
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    expected = int(setting) if setting in ("1", "3") else cpus
+    assert _threads.threads() == expected
+    monkeypatch.undo()
+    assert "numba" in sys.modules
+    assert _threads.threads() == numba.get_num_threads()
+
+
+def test_numba_s_default_is_read_as_numba_reads_it():
+    if os.environ.get("NUMBA_NUM_THREADS"):
+        pytest.skip("NUMBA_NUM_THREADS is set here")
+    assert _threads._numba_default() == numba.config.NUMBA_NUM_THREADS

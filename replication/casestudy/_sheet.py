@@ -487,7 +487,7 @@ def trace(
             rows[i, ROW_TALLY + c] = count[c]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def prepare(points, tri, raw, half):
     """The mesh tuple of :func:`trace` from vertices (m), CCW triangles and their neighbours.
 
@@ -568,7 +568,7 @@ def prepare(points, tri, raw, half):
     return (x, y, z, tri, nbr, normal, slope, bnd, edges), moved
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def orientations(x, y, tri):
     """Exact orientation sign of every triangle in the (x, y) plane."""
     out = np.empty(tri.shape[0])
@@ -613,7 +613,7 @@ def _on_edge(x, y, tri, i, j):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def first_overlap(x, y, tri):
     """First pair (i, j, kind) of triangles that overlap in (x, y), or (-1, -1, 0).
 

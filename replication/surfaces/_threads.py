@@ -11,6 +11,7 @@ and starts its own when it needs one.
 from __future__ import annotations
 
 import os
+import sys
 import threading
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -111,12 +112,27 @@ def frozen(a: np.ndarray, dtype=None) -> np.ndarray:
 
 def threads() -> int:
     """numba's thread count (the threading layer is started on first use); 1 in a process
-    that called :func:`one_thread`."""
+    that called :func:`one_thread`.
+
+    In a process that has not imported numba (its ahead-of-time kernels,
+    :mod:`replication._aot`, serve it), the count numba would start with, read without importing
+    it: ``NUMBA_NUM_THREADS`` when set, else the CPUs this process may run on.
+    """
     if _one:
         return 1
-    import numba
+    get = getattr(sys.modules.get("numba"), "get_num_threads", None)  # None: numba not (yet) loaded
+    return _numba_default() if get is None else int(get())
 
-    return int(numba.get_num_threads())
+
+def _numba_default() -> int:
+    """numba's default thread count (``numba.config.NUMBA_NUM_THREADS``), without importing numba."""
+    text = os.environ.get("NUMBA_NUM_THREADS", "").strip()
+    if text.isdigit() and int(text) >= 1:
+        return int(text)
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # no affinity on this system (macOS, Windows)
+        return max(1, os.cpu_count() or 1)
 
 
 def one_thread() -> None:

@@ -46,7 +46,7 @@ def _walk_one(xy, tri, nbr, t, px, py, max_steps):
     return 0, t
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _locate(xy, tri, nbr, queries, exhaustive, found, left):
     """Triangle of each query in ``found`` (-1 outside); ``left``: the triangle it left through."""
     m = tri.shape[0]
@@ -68,7 +68,7 @@ def _locate(xy, tri, nbr, queries, exhaustive, found, left):
                     break
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _exits(xy, tri, nbr, queries, start, left):
     """For queries outside a convex triangulation: the boundary triangle each walk leaves
     through (-1 if the query is inside after all). Each walk starts from triangle
@@ -131,7 +131,7 @@ def _ring(tri, nbr, t, v, around, where):
     return count
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _nearest(xy, tri, nbr, queries, start, ids, out):
     """Nearest vertex of each query by a greedy walk on the triangulation from triangle ``start[i]``.
 
@@ -200,7 +200,7 @@ def _area2(ax, ay, bx, by, cx, cy):
     return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _barycentric(xy, tri, found, queries, values, out):
     for i in range(queries.shape[0]):
         t = found[i]
