@@ -211,12 +211,19 @@ def test_a_run_directory_holding_a_user_s_files_is_refused(capsys, tmp_path, no_
                  ".config.json.h1-42-ab.tmp.json", ".run-3.json.h1-42-cd.tmp.json"):  # fmt: skip
         (ours / name).write_text("")
     assert foreign_entries(ours, own=("fitness.json", "report")) == []
+    for name in (".DS_Store", "Thumbs.db", "desktop.ini", ".directory", "._run-0.json"):  # a file browser's
+        (ours / name).write_text("")
+    assert foreign_entries(ours, own=("fitness.json", "report")) == []
     for name in ("run-x.json", ".notes.tmp.json", "config.json.bak", "run-1.json~"):
         (ours / name).write_text("")
     assert foreign_entries(ours, own=("fitness.json", "report")) == sorted(
         [".notes.tmp.json", "config.json.bak", "run-1.json~", "run-x.json"]
     )
     assert foreign_entries(tmp_path / "absent") == []
+    (mine / "thesis.tex").unlink()
+    (mine / ".DS_Store").write_text("")  # a directory the user only looked at in the Finder
+    code, _, err = run(capsys, "casestudy", *TINY, "--run-dir", mine)
+    assert "not a GA run's" not in err and "the experiment started" in err, err  # past the checks
 
 
 # ---- executors ------------------------------------------------------------------------------------

@@ -195,6 +195,20 @@ def test_an_sph_run_directory_with_the_users_files_is_refused(capsys, bucket_csv
     assert all((mine / name).read_text() == "precious\n" for name in ("steps.csv", "result.json"))
 
 
+def test_a_file_browser_s_files_do_not_make_a_run_directory_anyone_s(tmp_path):
+    """A directory the user only looked at in the Finder holds .DS_Store: still empty."""
+    from replication.cli.sph import _check_run_dir
+
+    looked_at = tmp_path / "looked-at"
+    looked_at.mkdir()
+    for name in (".DS_Store", "Thumbs.db", "desktop.ini", ".directory", "._scene.json"):
+        (looked_at / name).write_text("")
+    _check_run_dir(str(looked_at))  # no error
+    (looked_at / "notes.txt").write_text("mine\n")
+    with pytest.raises(InputError, match=r"\(notes\.txt\)"):
+        _check_run_dir(str(looked_at))
+
+
 def test_an_sph_run_directory_that_is_a_file_is_one_line(capsys, bucket_csv, tmp_path):
     # was: "unexpected FileExistsError" once the simulation made its directory
     (tmp_path / "afile").write_text("hi\n")

@@ -25,6 +25,7 @@ from replication.casestudy.ga import GAConfig
 from replication.casestudy.jet import JetConfig
 from replication.errors import CheckpointError, InputError
 from replication.io.atomic import atomic_write_text
+from replication.io.paths import is_browser_file
 
 __all__ = [
     "CONFIG_NAME",
@@ -111,7 +112,9 @@ def foreign_entries(run_dir: str | os.PathLike[str], own: Collection[str] = ()) 
 
     A run writes its configuration, its checkpoints, its lock and the temporary files of
     their atomic writes (``.config.json.<tag>.tmp.json``); ``own`` names what else the
-    caller writes there (the fitness record, the default reports directory).
+    caller writes there (the fitness record, the default reports directory). The files a file
+    browser leaves behind (``.DS_Store``, ``Thumbs.db``, ``desktop.ini``, ``.directory``,
+    ``._<name>``) are no one's work and count as neither.
     """
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
@@ -119,6 +122,8 @@ def foreign_entries(run_dir: str | os.PathLike[str], own: Collection[str] = ()) 
     ours = {CONFIG_NAME, LOCK_NAME, *own}
 
     def is_ours(name: str) -> bool:
+        if is_browser_file(name):
+            return True  # not written by a run, but no user's work either
         if name.startswith(".") and ".tmp" in name:  # an atomic write's temporary: .<name>.<tag>.tmp<suffix>
             name = name[1:].split(".tmp", 1)[0]
             return any(name.startswith(f"{n}.") for n in ours) or bool(_CHECKPOINT_TMP.match(name))

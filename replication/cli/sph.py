@@ -110,15 +110,16 @@ def _check_run_dir(run_dir: str) -> None:
     """``--run-dir`` must be new, empty or an earlier simulation's: the simulation replaces
     scene.json, steps.csv, series.csv, result.json, ... there, and deleted a user's files of
     those names without a word. A ``--run-dir`` naming a file is refused too, and one whose
-    absolute path is not UTF-8 (the engine cannot be given it)."""
+    absolute path is not UTF-8 (the engine cannot be given it). A file browser's files
+    (``.DS_Store``, ...) count as nothing."""
     from replication.errors import InputError
-    from replication.io.paths import check_utf8_path, check_writable_dir
+    from replication.io.paths import check_utf8_path, check_writable_dir, is_browser_file
 
     check_utf8_path(run_dir, "--run-dir")  # the engine's binding: every simulation crashed
     path = check_writable_dir(run_dir, "--run-dir")
     if not path.is_dir():
         return
-    entries = sorted(entry.name for entry in path.iterdir())
+    entries = sorted(entry.name for entry in path.iterdir() if not is_browser_file(entry.name))
     others = [name for name in entries if name not in SIMULATION_ENTRIES]
     if others or (set(entries) - {".lock", "job.json"} and "job.json" not in entries):
         shown = ", ".join((others or entries)[:3]) + (", ..." if len(others or entries) > 3 else "")

@@ -27,12 +27,23 @@ __all__ = [
     "check_utf8_path",
     "check_writable_dir",
     "dangling",
+    "is_browser_file",
     "lookup",
     "same_file",
 ]
 
 #: The subdirectories a report command writes into its output directory.
 REPORT_SUBDIRS = ("data", "figures")
+#: Files a file browser leaves in a directory it showed (macOS Finder, Windows Explorer, KDE
+#: Dolphin); macOS's ``._<name>`` companions on foreign file systems are matched by prefix.
+BROWSER_FILES = frozenset({".DS_Store", "Thumbs.db", "desktop.ini", ".directory"})
+
+
+def is_browser_file(name: str) -> bool:
+    """Whether a directory entry named ``name`` is a file browser's, not a user's work or a
+    run's: a run directory holding one is still empty, as far as a command is concerned."""
+    return name in BROWSER_FILES or name.startswith("._")
+
 
 Named = tuple[str, str | os.PathLike[str]]
 
