@@ -478,7 +478,6 @@ def test_the_compiled_kernels_release_the_gil():
             calls.append(args)
             return trace(*args)
 
-        recorded.releases_gil = True
         return recorded
 
     with pytest.MonkeyPatch.context() as patch:

@@ -60,7 +60,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from replication._aot import kernel, releases_gil
+from replication._aot import kernel
 from replication.casestudy import _sheetcodes as codes
 from replication.casestudy.coverage import warn_if_too_coarse
 from replication.casestudy.jetconfig import JetConfig  # re-exported: jet.JetConfig keeps working
@@ -255,11 +255,7 @@ def _trace(
     trace = kernel("sheet_trace")
     common = (mesh, half, bool(convex), *jet, MIN_SPLIT_FRACTION, max_steps, loss)
     pieces = [functools.partial(trace, *common, j, PIECES, rows) for j in range(PIECES)]
-    if releases_gil(trace):  # numba's and the ahead-of-time kernel: the pieces run side by side
-        run(pieces)
-    else:
-        for piece in pieces:
-            piece()
+    run(pieces)  # side by side: numba's kernel and the ahead-of-time one both release the GIL
     # the streamlets' rows added in order: the same sums whatever ran the pieces
     total = rows.sum(axis=0)
     values = total.tolist()
