@@ -36,6 +36,21 @@ def _xdist_role(config) -> str:
     return ""
 
 
+def pytest_configure(config):
+    """Python's own SIGINT handler in every test process, as in a terminal.
+
+    A test session started in the background by a non-interactive shell (``pytest &`` in a
+    script) inherits SIGINT ignored, in the controller, its xdist workers and every child
+    they start: the commands then rightly ignore Ctrl-C (see
+    ``test_a_command_that_ignores_sigint_is_not_interrupted_by_it``), and the tests that
+    press it saw their commands finish. The tests are of Ctrl-C as a terminal delivers it.
+    """
+    import signal
+
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def pytest_sessionstart(session):
     """With xdist workers: compile (or load) the kernels once, here, before the workers start,
     so that in a fresh clone they do not all compile the same kernels at once (xdist starts its
@@ -172,3 +187,25 @@ def restore_global_rng():
     state = np.random.get_state()
     yield
     np.random.set_state(state)
+
+
+@pytest.fixture(autouse=True)
+def _signal_handlers_restored():
+    """Every test leaves SIGINT's and SIGTERM's handlers as it found them.
+
+    A handler left ignored (``SIG_IGN``) outlives the test: later tests of the same worker
+    then never see their Ctrl-C, and child processes inherit the ignored signal across
+    ``exec``. The test that changed it fails here, by name, and the handler is restored.
+    """
+    import signal
+
+    before = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
+    yield
+    changed = {}
+    for signum, handler in before.items():
+        now = signal.getsignal(signum)
+        if now is not handler and now != handler:
+            changed[signal.Signals(signum).name] = now
+            signal.signal(signum, handler)
+    if changed:
+        pytest.fail(f"the test left signal handlers changed: {changed}")

@@ -154,6 +154,34 @@ def test_all_outputs_replaced_together_on_success(capsys, tmp_path):
     assert (tmp_path / "c.csv").read_text().count("\n") == 31
 
 
+def test_a_command_that_ignores_sigint_is_not_interrupted_by_it(capsys, tmp_path, monkeypatch):
+    """A command started with SIGINT ignored (``replication adt ... &`` from a script, or under
+    ``nohup``) keeps ignoring it: the section that holds a Ctrl-C while the outputs are moved
+    into place must not turn an ignored SIGINT into an interruption."""
+    import signal
+
+    real_replace = os.replace
+    sent = []
+
+    def replace(src, dst):
+        sent.append(dst)
+        os.kill(os.getpid(), signal.SIGINT)  # on every move, and so before, during and after the hold
+        real_replace(src, dst)
+
+    _existing_outputs(tmp_path)
+    monkeypatch.setattr(os, "replace", replace)
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        code, _, err = run(capsys, "adt", "--random", "30", "--seed", "1", "-o", tmp_path / "s.vtk",
+                           "--save-cloud", tmp_path / "c.csv")  # fmt: skip
+        assert signal.getsignal(signal.SIGINT) == signal.SIG_IGN  # the command left it ignored
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert code == 0 and err == "" and len(sent) >= 2, err
+    assert (tmp_path / "s.vtk").read_text().startswith("# vtk DataFile")
+    assert (tmp_path / "c.csv").read_text().count("\n") == 31
+
+
 @pytest.mark.parametrize("signum", ["SIGINT", "SIGTERM"])
 def test_a_signal_while_the_outputs_are_moved_says_they_were_written(capsys, tmp_path, monkeypatch, signum):
     """A Ctrl-C held while the files were moved into place was reported as a bare "interrupted",
