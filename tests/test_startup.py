@@ -71,6 +71,24 @@ def test_adt_command_loads_no_plotting_tables_or_nurbs_library(tmp_path):
     assert "scipy.stats" not in modules and "scipy.spatial" not in modules
 
 
+def test_the_casestudy_command_starts_its_ga_before_loading_plotting_libraries(tmp_path):
+    """The report's plotting (matplotlib, then pyvista) is loaded once the GA is done: the GA
+    starts sooner, and a run stopped by Ctrl-C never loads it."""
+    argv = ["casestudy", "--runs", "1", "--generations", "1", "--population", "6", "--executor", "serial",
+            "--run-dir", str(tmp_path / "run"), "--output-dir", str(tmp_path / "out")]  # fmt: skip
+    code = (
+        "import json, sys\nimport replication.experiments.casestudy as E\nrun = E.run_casestudy\n"
+        "def spy(*a, **k):\n    print(json.dumps(sorted(sys.modules)), file=sys.stderr)\n"
+        "    return run(*a, **k)\nE.run_casestudy = spy\nfrom replication.cli import main\n"
+        f"assert main({argv!r}) == 0"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    at_start = next(line for line in result.stderr.splitlines() if line.startswith("["))
+    loaded = {m.split(".")[0] for m in json.loads(at_start)}
+    assert not {"matplotlib", "pyvista", "vtk", "vtkmodules"} & loaded
+    assert (tmp_path / "out" / "casestudy.md").is_file()  # and the report was drawn after all
+
+
 def test_stats_loads_scipy_stats_on_first_use():
     modules = _loaded_after("import replication.stats")
     assert "scipy" not in {m.split(".")[0] for m in modules}

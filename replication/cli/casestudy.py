@@ -258,7 +258,6 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
     from replication.casestudy.evaluate import executor
     from replication.casestudy.rundir import hold, write_config
     from replication.experiments.casestudy import run_casestudy
-    from replication.report.casestudy import render_casestudy, save_casestudy_data
 
     config = plan.config
     on_interrupt = say_simulations_finish if plan.sph is not None else None  # SPH takes minutes
@@ -301,6 +300,10 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
             remove_unused_run_dir(plan.run_dir, plan.created)
             raise
     try:
+        # imported once the GA is done (matplotlib: 0.2 s): the GA starts sooner, and a run
+        # stopped by Ctrl-C never pays for it
+        from replication.report.casestudy import render_casestudy, save_casestudy_data
+
         with saving_data(plan.out):
             save_casestudy_data(results, plan.out)
     except KeyboardInterrupt as exc:
