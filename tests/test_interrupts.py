@@ -51,11 +51,11 @@ def _generation(run_dir):
         return 0
 
 
-#: ``python -m replication`` with Python's own SIGINT handler, as when started from a terminal:
-#: a test session started in the background by a non-interactive shell inherits SIGINT
-#: ignored, and so would the command, which Ctrl-C then cannot stop.
+#: ``python -m replication`` named as the console script (its messages say "replication").
+#: Its SIGINT handler is Python's own, as from a terminal, even in a test session started in
+#: the background: conftest's ``pytest_configure`` restores it in every test process.
 AS_FROM_A_TERMINAL = (
-    "import runpy, signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
+    "import runpy, sys; "
     "sys.argv[0] = 'replication'; runpy.run_module('replication', run_name='__main__', alter_sys=True)"
 )
 
@@ -230,7 +230,6 @@ def test_sigterm_while_workers_start_is_taken_once_and_leaves_them_quiet():
 
 _SIMULATING = """
 import os, signal, sys, time
-signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal
 sys.path.insert(0, sys.argv[3])
 import workerfaults
 from replication.casestudy.evaluate import executor
@@ -360,7 +359,6 @@ def test_sigterm_abandons_the_simulation_under_way_at_once(tmp_path, kind):
 
 _BLOCKED_ON_DASK = """
 import os, signal, sys, time
-signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal
 sys.path.insert(0, sys.argv[2])
 import workerfaults
 from replication.casestudy import cluster
