@@ -109,7 +109,7 @@ def _triangulation() -> None:
     """The sweep-hull triangulator and the NURBS gridding."""
     import numpy as np
 
-    from replication.surfaces import _grid, _partition, _raster, _triangulate, adt, random_cloud
+    from replication.surfaces import _partition, _raster, _triangulate, adt, random_cloud
     from replication.surfaces._threads import frozen
     from replication.surfaces.nurbs import fit_nurbs
 
@@ -122,8 +122,11 @@ def _triangulation() -> None:
         for levels in (0, 1):  # one block (general path), and blocks with merges and partition
             _triangulate._triangulate(frozen(points, np.float64), (0, 1), levels)
         _partition.magnitude(frozen(points, np.float64), (0, 1))  # the range check of clouds above SMALL
-    owners = tuple(np.full((2, 2), -1, dtype=np.int32) for _ in range(_grid._RUNS))
-    _raster._combine(owners, tuple(np.zeros((2, 2)) for _ in range(_grid._RUNS)), 0, 2)
+    # the pieces of a large gridding (no triangles here: the call compiles the kernel)
+    xy, values, axis = frozen(surface.projected()), frozen(surface.points[:, 2]), frozen(np.arange(2.0))
+    tri, nbr = frozen(surface.triangles, np.int32), frozen(surface.neighbors, np.int32)
+    owner, out = np.full((2, 2), -1, dtype=np.int32), np.empty((2, 2))
+    _raster._raster_shared(xy, tri, nbr, values, axis, axis, 0, 0, owner, out)
     fit_nurbs(cloud, evaluator="fast", triangulation=surface, tessellation=(4, 4))
 
 

@@ -157,25 +157,39 @@ def test_the_kernels_index_arrays_are_checked_not_read_out_of_bounds():
 
 
 @pytest.mark.filterwarnings("ignore::replication.errors.DuplicatePointsWarning")
+@pytest.mark.parametrize("backend", ["sweephull", "scipy"])
 @pytest.mark.parametrize("step", [None, 1.0])
-def test_raster_in_pieces_matches_one_sequential_pass(monkeypatch, step):
-    """Large triangulations are rasterized in ``_RUNS`` pieces on threads, each on its own
-    grid; a node on an edge shared by two pieces goes to the lower piece, as in one pass.
-    Lattice clouds put grid nodes exactly on shared edges and vertices."""
+def test_raster_in_pieces_matches_one_sequential_pass(monkeypatch, step, backend):
+    """Large triangulations are rasterized in ``_RUNS`` pieces on threads into one grid; a
+    node on an edge or a vertex goes to the lowest-index triangle containing it, as in one
+    pass. Lattice clouds put grid nodes exactly on edges and vertices: grids of unit and
+    half-unit steps over a unit lattice put most nodes on a vertex or an edge. Both backends'
+    adjacencies decide the owner of such a node."""
     from replication.surfaces import _grid
 
+    on_edges = on_vertices = 0
     for seed in range(4):
-        surface = adt(random_cloud(400 + 91 * seed, step=step, rng=seed))
-        xy, tri = surface.projected(), surface.triangles
+        surface = adt(random_cloud(400 + 91 * seed, step=step, rng=seed), backend=backend)
+        xy, tri, nbr = surface.projected(), surface.triangles, surface.neighbors
         depth = surface.points[:, surface.depth_axis]
         lo, hi = xy.min(axis=0), xy.max(axis=0)
-        u, v = np.linspace(lo[0], hi[0], 41 + seed), np.linspace(lo[1], hi[1], 37)
-        owner, out = _grid.raster(xy, tri, depth, u, v)
-        assert tri.shape[0] < _grid._PIECES_MIN  # the reference is the single pass
-        monkeypatch.setattr(_grid, "_PIECES_MIN", 1)
-        pieces_owner, pieces_out = _grid.raster(xy, tri, depth, u, v)
-        monkeypatch.undo()
-        assert np.array_equal(pieces_owner, owner)
-        inside = owner >= 0
-        assert inside.any() and (~inside).any()
-        assert np.array_equal(pieces_out[inside], out[inside])
+        grids = [(np.linspace(lo[0], hi[0], 41 + seed), np.linspace(lo[1], hi[1], 37))]
+        if step:
+            span = np.rint(hi - lo).astype(int)
+            grids += [tuple(np.linspace(lo[k], hi[k], f * span[k] + 1) for k in (0, 1)) for f in (1, 2)]
+        for u, v in grids:
+            owner, out = _grid.raster(xy, tri, nbr, depth, u, v)
+            assert tri.shape[0] < _grid._PIECES_MIN  # the reference is the single pass
+            monkeypatch.setattr(_grid, "_PIECES_MIN", 1)
+            pieces_owner, pieces_out = _grid.raster(xy, tri, nbr, depth, u, v)
+            monkeypatch.undo()
+            assert np.array_equal(pieces_owner, owner)
+            inside = owner >= 0
+            assert inside.any() and (~inside).any()
+            assert np.array_equal(pieces_out[inside], out[inside])
+            nodes = np.stack(np.meshgrid(u, v, indexing="ij"), axis=-1)[inside]
+            is_vertex = (nodes[:, None, :] == xy[None, :, :]).all(axis=2).any(axis=1)
+            on_vertices += int(is_vertex.sum())
+            on_edges += int((np.all(np.mod(nodes - lo, 0.5) == 0, axis=1) & ~is_vertex).sum())
+    if step:  # the lattice cases reached the paths they are here for
+        assert on_vertices > 1000 and on_edges > 1000, (on_vertices, on_edges)

@@ -16,38 +16,44 @@ from replication.surfaces._threads import frozen
 
 __all__ = ["raster", "relabel"]
 
-#: The triangles are cut into this many runs, rasterized on the thread pool; where runs
-#: claim the same node (on a shared edge) the lower run wins, as in one sequential pass.
+#: The triangles are cut into this many runs, rasterized on the thread pool into the same grid
+#: (a node belongs to the lowest-index triangle containing it, decided by that triangle alone).
 _RUNS = 4
 #: Triangulations of at least this many triangles are cut into ``_RUNS`` pieces.
 _PIECES_MIN = 100_000
 
 
-def raster(xy: np.ndarray, tri: np.ndarray, values: np.ndarray, u: np.ndarray, v: np.ndarray):
+def raster(
+    xy: np.ndarray, tri: np.ndarray, nbr: np.ndarray, values: np.ndarray, u: np.ndarray, v: np.ndarray
+):
     """``(owner, out)``: for each node of the grid ``u x v``, the first triangle containing it
-    (-1 outside) and the interpolated value there (undefined outside)."""
+    (-1 outside) and the interpolated value there (undefined outside).
+
+    ``nbr`` is the triangles' adjacency (``Surface.neighbors``): a large triangulation is
+    rasterized in pieces at once, and a node on an edge or a vertex is taken by the triangle
+    that the adjacency shows to be the lowest-index one containing it. One grid and no
+    per-piece copies: at a million nodes the copies were 36 MB of fresh pages and a merge.
+    """
     xy, tri, values = frozen(xy, np.float64), frozen(tri, np.int32), frozen(values, np.float64)
     u, v = frozen(u, np.float64), frozen(v, np.float64)
     shape = (u.shape[0], v.shape[0])
     m = tri.shape[0]
+    owner, out = np.full(shape, -1, dtype=np.int32), np.empty(shape)
     if m < _PIECES_MIN:
-        owner, out = np.full(shape, -1, dtype=np.int32), np.empty(shape)
         kernel("raster")(xy, tri, values, u, v, 0, m, owner, out)
         return owner, out
-    from replication.surfaces._raster import _combine, _raster
+    from replication.surfaces._raster import _raster_shared
     from replication.surfaces._threads import run
 
+    nbr = frozen(nbr, np.int32)
+    if nbr.shape != tri.shape:
+        raise InputError(f"the adjacency must have the triangles' shape {tri.shape}, got {nbr.shape}")
     edges = [m * r // _RUNS for r in range(_RUNS + 1)]
-    owners = [np.full(shape, -1, dtype=np.int32) for _ in range(_RUNS)]
-    outs = [np.empty(shape) for _ in range(_RUNS)]
     run([
-        (lambda r=r: _raster(xy, tri, values, u, v, edges[r], edges[r + 1], owners[r], outs[r]))
+        (lambda r=r: _raster_shared(xy, tri, nbr, values, u, v, edges[r], edges[r + 1], owner, out))
         for r in range(_RUNS)
     ])  # fmt: skip
-    rows = [shape[0] * r // _RUNS for r in range(_RUNS + 1)]
-    owned, valued = tuple(owners), tuple(outs)
-    run([(lambda r=r: _combine(owned, valued, rows[r], rows[r + 1])) for r in range(_RUNS)])
-    return owners[0], outs[0]
+    return owner, out
 
 
 def relabel(points: np.ndarray, axes: np.ndarray, triangles: np.ndarray, order: np.ndarray):

@@ -72,15 +72,93 @@ def _raster(xy, tri, values, u, v, lo, hi, owner, out):
 
 
 @njit(cache=True, nogil=True)
-def _combine(owners, outs, lo, hi):
-    """Rows lo..hi-1: a node no earlier run claimed takes the next run's triangle and value."""
-    for r in range(1, len(owners)):
-        owner, out, later, values = owners[0], outs[0], owners[r], outs[r]
-        for i in range(lo, hi):
-            for j in range(owner.shape[1]):
-                if owner[i, j] < 0 and later[i, j] >= 0:
-                    owner[i, j] = later[i, j]
-                    out[i, j] = values[i, j]
+def _fan_min(tri, nbr, t, k):
+    """The lowest index of the triangles around vertex ``tri[t, k]``: the triangles that
+    contain a node lying on that vertex. Walks the vertex's fan through ``nbr`` both ways
+    from ``t`` (at most ``len(tri)`` steps each, whatever ``nbr`` holds)."""
+    w = tri[t, k]
+    m = tri.shape[0]
+    best = t
+    for way in range(2):
+        s, e = t, k if way == 0 else (k + 2) % 3  # leave through the edge that starts (ends) at w
+        for _ in range(m):
+            n = nbr[s, e]
+            if n < 0 or n == t:
+                break
+            if n < best:
+                best = n
+            kw = 0 if tri[n, 0] == w else (1 if tri[n, 1] == w else 2)
+            if tri[n, kw] != w:  # not a fan around w: a triangulation adt did not build
+                break
+            s, e = n, kw if way == 0 else (kw + 2) % 3
+        else:
+            continue
+        if nbr[s, e] == t:  # an interior vertex: the walk came round, no need to walk back
+            break
+    return best
+
+
+@njit(cache=True, nogil=True)
+def _raster_shared(xy, tri, nbr, values, u, v, lo, hi, owner, out):
+    """As :func:`_raster`, for the triangles lo..hi-1 of a conforming triangulation whose
+    other triangles run at the same time on the same ``owner`` and ``out``.
+
+    A node belongs to the lowest-index triangle that contains it, as in one sequential
+    pass, decided by the claimant alone: a node inside a triangle has no other; one on an
+    edge shares it with the neighbour across the edge (``nbr``); one on a vertex with the
+    vertex's fan (:func:`_fan_min`). Every node is written by one triangle only, so runs of
+    triangles can share the grid without a per-run copy and a merge. The ``owner[i, j] >=
+    0`` test only skips a node taken already (by this run or another): it cannot change
+    the result, since the taker is the one claimant.
+    """
+    mu = u.shape[0]
+    mv = v.shape[0]
+    u0 = u[0]
+    v0 = v[0]
+    iu = (mu - 1) / (u[mu - 1] - u0)
+    iv = (mv - 1) / (v[mv - 1] - v0)
+    for t in range(lo, hi):
+        a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
+        ax, ay, bx, by, cx, cy = xy[a, 0], xy[a, 1], xy[b, 0], xy[b, 1], xy[c, 0], xy[c, 1]
+        i_lo = max(0, int(math.ceil((min(ax, bx, cx) - u0) * iu - _SLACK)))
+        i_hi = min(mu - 1, int(math.floor((max(ax, bx, cx) - u0) * iu + _SLACK)))
+        j_lo = max(0, int(math.ceil((min(ay, by, cy) - v0) * iv - _SLACK)))
+        j_hi = min(mv - 1, int(math.floor((max(ay, by, cy) - v0) * iv + _SLACK)))
+        den = 0.0
+        for i in range(i_lo, i_hi + 1):
+            px = u[i]
+            for j in range(j_lo, j_hi + 1):
+                if owner[i, j] >= 0:
+                    continue
+                py = v[j]
+                oa = orient(ax, ay, bx, by, px, py)
+                if oa < 0.0:
+                    continue
+                ob = orient(bx, by, cx, cy, px, py)
+                if ob < 0.0:
+                    continue
+                oc = orient(cx, cy, ax, ay, px, py)
+                if oc < 0.0:
+                    continue
+                if oa == 0.0 or ob == 0.0 or oc == 0.0:
+                    if oa == 0.0 and oc == 0.0:
+                        first = _fan_min(tri, nbr, t, 0)
+                    elif oa == 0.0 and ob == 0.0:
+                        first = _fan_min(tri, nbr, t, 1)
+                    elif ob == 0.0 and oc == 0.0:
+                        first = _fan_min(tri, nbr, t, 2)
+                    else:
+                        n = nbr[t, 0] if oa == 0.0 else (nbr[t, 1] if ob == 0.0 else nbr[t, 2])
+                        first = t if n < 0 or n > t else n
+                    if first != t:
+                        continue
+                if den == 0.0:
+                    den = _area2(ax, ay, bx, by, cx, cy)
+                la = _area2(px, py, bx, by, cx, cy) / den
+                lb = _area2(ax, ay, px, py, cx, cy) / den
+                lc = _area2(ax, ay, bx, by, px, py) / den
+                owner[i, j] = t
+                out[i, j] = la * values[a] + lb * values[b] + lc * values[c]
 
 
 @njit(cache=True, nogil=True)
