@@ -22,6 +22,16 @@ TIMINGS = {"adt_s", "nurbs_geomdl_s", "nurbs_fast_s", "time_ratio_geomdl", "time
            "time_difference_geomdl"}  # fmt: skip
 
 
+def _recorded(events, name, real):
+    """``real``, appending ``name`` to ``events`` at each call."""
+
+    def call(*args, **kwargs):
+        events.append(name)
+        return real(*args, **kwargs)
+
+    return call
+
+
 def _no_progress(items, description, total):
     return items
 
@@ -87,11 +97,21 @@ def test_scale_file_sizes_on_workers_match_one_process(tmp_path):
         table1.scale_file_size(config, str(tmp_path), (1_000, "PLY"))
 
 
-def test_the_whole_experiment_on_workers_matches_one_process():
-    """run_table1 end to end on a tiny configuration: every table but the timings is equal."""
+def test_the_whole_experiment_on_workers_matches_one_process(monkeypatch):
+    """run_table1 end to end on a tiny configuration: every table but the timings is equal.
+    With workers, a pool opens after each stage of timings, never before: the Monte Carlo
+    statistics and the storage comparison (no timing between them) share one."""
     config = dataclasses.replace(CONFIG, repeats=1, warmup=0, mc_seeds=2, scale_ns=(1_000, 3_000),
                                  scale_repeats=1, scale_max_files=3_000)  # fmt: skip
-    one, two = run_table1(config, workers=1), run_table1(config, workers=2)
+    one = run_table1(config, workers=1)
+    events = []
+    for name in ("_worker_pool", "interleaved", "storage_monte_carlo"):
+        monkeypatch.setattr(table1, name, _recorded(events, name, getattr(table1, name)))
+    two = run_table1(config, workers=2)
+    stages = [name for k, name in enumerate(events) if name != "interleaved" or events[k - 1 : k] != [name]]
+    # single sample and Monte Carlo timings, a pool for the statistics and the storage, the
+    # scale sweep's timings, a pool for its file sizes
+    assert stages == ["interleaved", "_worker_pool", "storage_monte_carlo", "interleaved", "_worker_pool"]
     assert (one.provenance["workers"], two.provenance["workers"]) == (1, 2)
     for name in ("sizes", "clouds", "stats", "storage_raw", "storage"):
         pd.testing.assert_frame_equal(getattr(one, name), getattr(two, name))

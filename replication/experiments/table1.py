@@ -393,19 +393,50 @@ def _worker_pool(workers: int) -> Iterator[Executor | None]:
         yield pool
 
 
+class _SharedPool:
+    """One :func:`_worker_pool` for consecutive untimed stages: opened by the first
+    :meth:`get` (after the timings before it), kept for the next stage, closed with the
+    ``with`` block. The Monte Carlo statistics and the storage comparison share one, which
+    saves a pool start: a second per worker where workers are spawned (macOS, or a process
+    with threads running)."""
+
+    def __init__(self, workers: int) -> None:
+        self.workers = workers
+        self._stack = contextlib.ExitStack()
+        self._pool: Executor | None = None
+        self._opened = False
+
+    def get(self) -> Executor | None:
+        if not self._opened:
+            self._pool = self._stack.enter_context(_worker_pool(self.workers))
+            self._opened = True
+        return self._pool
+
+    def __enter__(self) -> _SharedPool:
+        return self
+
+    def __exit__(self, *exc: object) -> bool | None:
+        return self._stack.__exit__(*exc)
+
+
 def _chunk(jobs: int, workers: int, most: int) -> int:
     """Jobs per task: at most ``most``, and at least four tasks per worker when there are few."""
     return max(1, min(most, math.ceil(jobs / (4 * workers))))
 
 
-def _monte_carlo(config: Table1Config, progress: Progress, workers: int = 1) -> pd.DataFrame:
+def _monte_carlo(
+    config: Table1Config, progress: Progress, workers: int = 1, shared: _SharedPool | None = None
+) -> pd.DataFrame:
     """Every Monte Carlo cloud: sizes and times (timed here, alone), then the paired
-    statistics (untimed: on ``workers`` processes, results in the same order)."""
+    statistics (untimed: on ``workers`` processes, results in the same order), on the pool
+    of ``shared`` when given (opened only now, after the timings)."""
     rows = _monte_carlo_timings(config, progress)
     jobs = [(row["n"], row["replicate"]) for row in rows]
-    with _worker_pool(workers) as pool:
+    with contextlib.ExitStack() as stack:
+        if shared is None:
+            shared = stack.enter_context(_SharedPool(workers))
         stats = ordered_map(
-            pool, partial(monte_carlo_statistics, config), jobs, _chunk(len(jobs), workers, MC_CHUNK)
+            shared.get(), partial(monte_carlo_statistics, config), jobs, _chunk(len(jobs), workers, MC_CHUNK)
         )
         # strict: zip then asks the progress hook for one more item, so its bar reaches "done"
         for row, extra in zip(
@@ -607,20 +638,21 @@ def run_table1(
         single = _single_sample(config, workdir, progress)
         stage_seconds["single_sample"] = time.perf_counter() - t0
         # the untimed work (statistics, storage and file sizes) on worker processes, each pool
-        # opened after the timings it follows: no timing ever runs beside a worker
-        t0 = time.perf_counter()
-        mc_raw = _monte_carlo(config, progress, workers)
-        stage_seconds["monte_carlo"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        kinds = {"lattice": partial(table1_cloud, config)} if config.step else {}
-        kinds["continuous"] = partial(continuous_cloud, config)
-        jobs = len(config.ns) * config.mc_seeds * len(kinds)
-        with _worker_pool(workers) as pool:
+        # opened after the timings it follows: no timing ever runs beside a worker. The storage
+        # comparison follows the statistics with no timing between: it reuses their pool.
+        with _SharedPool(workers) as shared:
+            t0 = time.perf_counter()
+            mc_raw = _monte_carlo(config, progress, workers, shared)
+            stage_seconds["monte_carlo"] = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            kinds = {"lattice": partial(table1_cloud, config)} if config.step else {}
+            kinds["continuous"] = partial(continuous_cloud, config)
+            jobs = len(config.ns) * config.mc_seeds * len(kinds)
             storage_raw = storage_monte_carlo(
                 config.ns, config.mc_seeds, kinds, degree=config.degree, progress=progress,
-                executor=pool, chunksize=_chunk(jobs, workers, STORAGE_CHUNK),
+                executor=shared.get(), chunksize=_chunk(jobs, workers, STORAGE_CHUNK),
             )  # fmt: skip
-        stage_seconds["storage"] = time.perf_counter() - t0
+            stage_seconds["storage"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         scale_raw = _scale_sweep(config, progress, workdir, workers)
         stage_seconds["scale_sweep"] = time.perf_counter() - t0
