@@ -31,24 +31,41 @@ def _area2(ax, ay, bx, by, cx, cy):
     return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
-@njit(cache=True, nogil=True)
-def _raster(xy, tri, values, u, v, lo, hi, owner, out):
-    """Fill ``out[i, j]`` (the value at ``(u[i], v[j])``) and ``owner[i, j]`` (its triangle)
-    from the triangles lo..hi-1. ``u`` and ``v`` are increasing and uniformly spaced;
-    ``owner`` must hold -1 on entry."""
+@njit(cache=True, inline="always")
+def _box(ax, ay, bx, by, cx, cy, u, v):
+    """The grid indices ``(i_lo, i_hi, j_lo, j_hi)`` of the candidate nodes of triangle abc:
+    its bounding box on the uniform grid ``u x v``, widened by ``_SLACK`` steps."""
     mu = u.shape[0]
     mv = v.shape[0]
     u0 = u[0]
     v0 = v[0]
     iu = (mu - 1) / (u[mu - 1] - u0)
     iv = (mv - 1) / (v[mv - 1] - v0)
+    i_lo = max(0, int(math.ceil((min(ax, bx, cx) - u0) * iu - _SLACK)))
+    i_hi = min(mu - 1, int(math.floor((max(ax, bx, cx) - u0) * iu + _SLACK)))
+    j_lo = max(0, int(math.ceil((min(ay, by, cy) - v0) * iv - _SLACK)))
+    j_hi = min(mv - 1, int(math.floor((max(ay, by, cy) - v0) * iv + _SLACK)))
+    return i_lo, i_hi, j_lo, j_hi
+
+
+@njit(cache=True, inline="always")
+def _value(px, py, ax, ay, bx, by, cx, cy, den, va, vb, vc):
+    """The barycentric interpolation at p of the values at a, b, c (``den``: twice abc's area)."""
+    la = _area2(px, py, bx, by, cx, cy) / den
+    lb = _area2(ax, ay, px, py, cx, cy) / den
+    lc = _area2(ax, ay, bx, by, px, py) / den
+    return la * va + lb * vb + lc * vc
+
+
+@njit(cache=True, nogil=True)
+def _raster(xy, tri, values, u, v, lo, hi, owner, out):
+    """Fill ``out[i, j]`` (the value at ``(u[i], v[j])``) and ``owner[i, j]`` (its triangle)
+    from the triangles lo..hi-1. ``u`` and ``v`` are increasing and uniformly spaced;
+    ``owner`` must hold -1 on entry."""
     for t in range(lo, hi):
         a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
         ax, ay, bx, by, cx, cy = xy[a, 0], xy[a, 1], xy[b, 0], xy[b, 1], xy[c, 0], xy[c, 1]
-        i_lo = max(0, int(math.ceil((min(ax, bx, cx) - u0) * iu - _SLACK)))
-        i_hi = min(mu - 1, int(math.floor((max(ax, bx, cx) - u0) * iu + _SLACK)))
-        j_lo = max(0, int(math.ceil((min(ay, by, cy) - v0) * iv - _SLACK)))
-        j_hi = min(mv - 1, int(math.floor((max(ay, by, cy) - v0) * iv + _SLACK)))
+        i_lo, i_hi, j_lo, j_hi = _box(ax, ay, bx, by, cx, cy, u, v)
         den = 0.0
         for i in range(i_lo, i_hi + 1):
             px = u[i]
@@ -64,11 +81,8 @@ def _raster(xy, tri, values, u, v, lo, hi, owner, out):
                     continue
                 if den == 0.0:
                     den = _area2(ax, ay, bx, by, cx, cy)
-                la = _area2(px, py, bx, by, cx, cy) / den
-                lb = _area2(ax, ay, px, py, cx, cy) / den
-                lc = _area2(ax, ay, bx, by, px, py) / den
                 owner[i, j] = t
-                out[i, j] = la * values[a] + lb * values[b] + lc * values[c]
+                out[i, j] = _value(px, py, ax, ay, bx, by, cx, cy, den, values[a], values[b], values[c])
 
 
 @njit(cache=True, nogil=True)
@@ -111,19 +125,10 @@ def _raster_shared(xy, tri, nbr, values, u, v, lo, hi, owner, out):
     0`` test only skips a node taken already (by this run or another): it cannot change
     the result, since the taker is the one claimant.
     """
-    mu = u.shape[0]
-    mv = v.shape[0]
-    u0 = u[0]
-    v0 = v[0]
-    iu = (mu - 1) / (u[mu - 1] - u0)
-    iv = (mv - 1) / (v[mv - 1] - v0)
     for t in range(lo, hi):
         a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
         ax, ay, bx, by, cx, cy = xy[a, 0], xy[a, 1], xy[b, 0], xy[b, 1], xy[c, 0], xy[c, 1]
-        i_lo = max(0, int(math.ceil((min(ax, bx, cx) - u0) * iu - _SLACK)))
-        i_hi = min(mu - 1, int(math.floor((max(ax, bx, cx) - u0) * iu + _SLACK)))
-        j_lo = max(0, int(math.ceil((min(ay, by, cy) - v0) * iv - _SLACK)))
-        j_hi = min(mv - 1, int(math.floor((max(ay, by, cy) - v0) * iv + _SLACK)))
+        i_lo, i_hi, j_lo, j_hi = _box(ax, ay, bx, by, cx, cy, u, v)
         den = 0.0
         for i in range(i_lo, i_hi + 1):
             px = u[i]
@@ -154,11 +159,8 @@ def _raster_shared(xy, tri, nbr, values, u, v, lo, hi, owner, out):
                         continue
                 if den == 0.0:
                     den = _area2(ax, ay, bx, by, cx, cy)
-                la = _area2(px, py, bx, by, cx, cy) / den
-                lb = _area2(ax, ay, px, py, cx, cy) / den
-                lc = _area2(ax, ay, bx, by, px, py) / den
                 owner[i, j] = t
-                out[i, j] = la * values[a] + lb * values[b] + lc * values[c]
+                out[i, j] = _value(px, py, ax, ay, bx, by, cx, cy, den, values[a], values[b], values[c])
 
 
 @njit(cache=True, nogil=True)
