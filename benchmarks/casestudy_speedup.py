@@ -3,8 +3,10 @@
 Run from the project's root: ``python -m benchmarks.casestudy_speedup [--repeats 3]``.
 
 Runs the full ``replication casestudy`` command (the paper's settings: 3 runs x 50
-generations x 48) with ``--workers 1`` (serial, in process), ``--workers 2`` (a process pool)
-and ``--executor dask --workers 2`` (a local dask cluster), each into its own scratch
+generations x 48) on one core (``--workers 1`` with ``NUMBA_NUM_THREADS=1``), with ``--workers
+1`` as it comes (in process, its compiled kernels on numba's threads: both cores of a 2-core
+machine), with ``--workers 2`` (a process pool, one kernel thread per worker) and with
+``--executor dask --workers 2`` (a local dask cluster), each into its own scratch
 directories, in rounds: every round runs each configuration once, in an order rotated from
 round to round, so that the load of a shared machine falls on all of them alike. For each
 run it records
@@ -19,8 +21,9 @@ Each round also measures what the machine itself gives (:func:`machine_ceiling`)
 throughput of two CPU-bound processes at once over one alone, 2 at best; a shared or
 virtual machine gives less, and no executor can beat it.
 
-Speed-ups are the serial median over the parallel median, and per round (the serial run
-over the parallel run of the same round: median and range). The serial part of the command
+Speed-ups are over one core: its median over each configuration's median, and per round (the
+one-core run over the other run of the same round: median and range). ``--workers 2`` over
+``--workers 1`` is the ratio of their two rows. The serial part of the command
 (everything but the GA) bounds the command's speed-up by Amdahl's law; the table gives that
 bound too. The output is a markdown table (stdout) and, with ``--json FILE``, the raw runs.
 Timings on a shared machine are loaded-machine numbers: the output gives the load average
@@ -37,14 +40,35 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-CONFIGS: dict[str, list[str]] = {
-    "serial (--workers 1)": ["--workers", "1"],
-    "process pool (--workers 2)": ["--executor", "process", "--workers", "2"],
-    "dask LocalCluster (2 workers)": ["--executor", "dask", "--workers", "2"],
+
+@dataclass(frozen=True)
+class Config:
+    """One configuration: its label, command-line options and the environment it adds."""
+
+    label: str
+    options: tuple[str, ...]
+    env: tuple[tuple[str, str], ...] = ()
+
+
+#: The configurations, by the name ``--only`` takes. The first is the reference of every
+#: speed-up: one core. ``--workers 1`` alone is not one core: the command evaluates in its own
+#: process, whose compiled kernels run on numba's threads (both cores of a 2-core machine; the
+#: jet force splits its work in two), while executor workers run them on one thread each
+#: (:func:`replication.surfaces._threads.one_thread`).
+CONFIGS: dict[str, Config] = {
+    "one-core": Config(
+        "one core (--workers 1, NUMBA_NUM_THREADS=1)", ("--workers", "1"), (("NUMBA_NUM_THREADS", "1"),)
+    ),
+    "serial": Config("--workers 1 (its kernels on numba's threads)", ("--workers", "1")),
+    "pool": Config("process pool (--workers 2)", ("--executor", "process", "--workers", "2")),
+    "dask": Config(
+        "dask LocalCluster (--executor dask --workers 2)", ("--executor", "dask", "--workers", "2")
+    ),
 }
 
 
@@ -53,13 +77,14 @@ def _children_cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def run_once(options: list[str], scratch: Path, settings: list[str]) -> dict[str, float]:
+def run_once(config: Config, scratch: Path, settings: list[str]) -> dict[str, float]:
     """One ``replication casestudy`` command; its wall, GA and CPU seconds."""
     run_dir, out = Path(tempfile.mkdtemp(dir=scratch)), Path(tempfile.mkdtemp(dir=scratch))
-    command = [sys.executable, "-m", "replication", "casestudy", *settings, *options]
+    command = [sys.executable, "-m", "replication", "casestudy", *settings, *config.options]
     command += ["--run-dir", str(run_dir / "run"), "--output-dir", str(out)]
     cpu, started = _children_cpu(), time.perf_counter()
-    done = subprocess.run(command, cwd=scratch, capture_output=True, text=True)
+    env = {**os.environ, **dict(config.env)}
+    done = subprocess.run(command, cwd=scratch, capture_output=True, text=True, env=env)
     wall, cpu = time.perf_counter() - started, _children_cpu() - cpu
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(command)} failed:\n{done.stderr}")
@@ -98,6 +123,8 @@ def summarize(runs: dict[str, list[dict[str, float]]], ceilings: list[float] | N
     serial_name = next(iter(runs))
     serial = runs[serial_name]
     lines = [
+        f"Speed-ups over the first row, {serial_name}.",
+        "",
         "| configuration | command s: median [min, max] | GA s | CPU s "
         "| speed-up command (medians; per round median [min, max]) | speed-up GA (medians; per round) |",
         "|---|---|---|---|---|---|",
@@ -118,7 +145,8 @@ def summarize(runs: dict[str, list[dict[str, float]]], ceilings: list[float] | N
     )
     lines.append(
         f"Everything but the GA (start-up, reference shapes and timing, report; medians): {others}. "
-        f"Were it all serial, a perfect GA speed-up on 2 workers would bound the command at {bound:.2f}x."
+        f"Were it all serial, a perfect GA speed-up on 2 workers would bound the command at {bound:.2f}x "
+        "over the first row."
     )
     if ceilings:
         lines.append(
@@ -126,6 +154,12 @@ def summarize(runs: dict[str, list[dict[str, float]]], ceilings: list[float] | N
             "of one alone in the same time (median [min, max] over the rounds; 2 is ideal)."
         )
     return "\n".join(lines)
+
+
+def chosen(only: list[str] | None) -> list[str]:
+    """The configurations to run, in :data:`CONFIGS`'s order; the one-core reference always first."""
+    reference = next(iter(CONFIGS))
+    return [name for name in CONFIGS if name == reference or not only or name in only]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -139,9 +173,7 @@ def main(argv: list[str] | None = None) -> int:
 
     warn_if_stale_kernels()
     settings = ["--quick"] if args.quick else []
-    names = args.only or list(CONFIGS)
-    if names[0] != next(iter(CONFIGS)):
-        names.insert(0, next(iter(CONFIGS)))  # the serial run is the reference
+    names = chosen(args.only)
     runs: dict[str, list[dict[str, float]]] = {name: [] for name in names}
     loads, ceilings = [], []
     with tempfile.TemporaryDirectory(prefix="casestudy-speedup-") as scratch:
@@ -161,7 +193,7 @@ def main(argv: list[str] | None = None) -> int:
         f"1-minute load average before each run {min(loads):.1f}-{load:.1f}{loaded}"
     )
     print()
-    print(summarize(runs, ceilings))
+    print(summarize({CONFIGS[name].label: rows for name, rows in runs.items()}, ceilings))
     if args.json:
         record = {"loads": loads, "cpus": cpus, "ceilings": ceilings, "runs": runs}
         Path(args.json).write_text(json.dumps(record, indent=1) + "\n")

@@ -108,3 +108,37 @@ def test_the_side_by_side_peak_is_the_child_s_own_however_large_the_caller(monke
     assert ballast.sum() == ballast.size
     assert 0 < peak["before_gib"] <= peak["peak_gib"] < 0.45, peak
     assert peak["cloud_gib"] == 1000 * 3 * 8 / 2**30
+
+
+def test_case_study_speed_ups_are_over_one_core_whichever_configurations_run(monkeypatch):
+    """``--workers 1`` runs its kernels on numba's threads (both cores): the reference of the
+    speed-ups is one core, run first whatever ``--only`` asks for, and one core only."""
+    monkeypatch.syspath_prepend(str(ROOT))
+    from benchmarks.casestudy_speedup import CONFIGS, chosen, summarize
+
+    first = next(iter(CONFIGS))
+    assert dict(CONFIGS[first].env) == {"NUMBA_NUM_THREADS": "1"} and CONFIGS[first].options == (
+        "--workers",
+        "1",
+    )
+    assert all("NUMBA_NUM_THREADS" not in dict(c.env) for name, c in CONFIGS.items() if name != first)
+    assert chosen(None) == list(CONFIGS)
+    assert chosen(["dask", "pool"]) == [first, "pool", "dask"]
+    assert chosen([first]) == [first]
+    runs = {
+        "one core": [
+            {"command_s": 10.0, "ga_s": 8.0, "cpu_s": 10.0},
+            {"command_s": 12.0, "ga_s": 8.0, "cpu_s": 12.0},
+        ],
+        "pool": [
+            {"command_s": 5.0, "ga_s": 4.0, "cpu_s": 11.0},
+            {"command_s": 8.0, "ga_s": 2.0, "cpu_s": 12.0},
+        ],
+    }
+    text = summarize(runs, [2.0, 1.9])
+    row = next(line for line in text.splitlines() if line.startswith("| pool |"))
+    # medians 11 / 6.5 = 1.69x; per round 2.0 and 1.5; GA: 8 / 3 = 2.67x, per round 2 and 4
+    assert "| 1.69x; 1.75 [1.50, 2.00] | 2.67x; 3.00 [2.00, 4.00] |" in row
+    assert "Speed-ups over the first row, one core." in text
+    # everything but the GA: median of 2 and 4 = 3 s; bound (3 + 8) / (3 + 4) = 1.57x
+    assert "bound the command at 1.57x over the first row" in text
