@@ -242,14 +242,39 @@ with executor(sys.argv[4], workers=1, on_interrupt=lambda: print("stopping", flu
     raise KeyboardInterrupt  # Ctrl-C while a simulation is under way
 """
 
+#: The same, as the GA evaluates: through the dispatcher that owns the executor
+#: (``replication casestudy --solver sph``). Its executor was closed as if nothing had happened:
+#: the command waited for the simulation without saying so, and did not abandon it when told to
+#: terminate.
+_SIMULATING_IN_THE_GA = """
+import functools, os, sys
+sys.path.insert(0, sys.argv[3])
+import numpy as np
+import workerfaults
+from replication.casestudy.dispatch import Dispatcher
+from replication.casestudy.evaluate import executor
+
+run_dir = sys.argv[1]
+say = lambda: print("stopping", flush=True)
+factory = functools.partial(executor, sys.argv[4], workers=1, on_interrupt=say)
+fitness = functools.partial(workerfaults.sleeping_fitness, run_dir, float(sys.argv[2]))
+started = lambda: os.path.exists(os.path.join(run_dir, "pid"))
+with Dispatcher(factory) as dispatcher:
+    dispatcher.evaluate(fitness, [np.zeros(3)], interrupted=started)  # Ctrl-C once the simulation runs
+"""
+
 #: Where the interrupted simulation runs: a process pool, and a local dask cluster if installed.
 SIMULATION_EXECUTORS = ["process", pytest.param("dask", marks=pytest.mark.skipif(
     not _has_dask(), reason="dask is not installed"))]  # fmt: skip
 
+#: How it is reached: the executor itself, or the GA's dispatcher that owns it.
+SIMULATION_CALLERS = {"executor": _SIMULATING, "GA dispatcher": _SIMULATING_IN_THE_GA}
 
-def _interrupted_simulation(tmp_path, seconds, kind):
+
+def _interrupted_simulation(tmp_path, seconds, kind, caller="executor"):
+    script = SIMULATION_CALLERS[caller]
     process = subprocess.Popen(
-        [sys.executable, "-c", _SIMULATING, str(tmp_path), str(seconds), str(Path(__file__).parent), kind],
+        [sys.executable, "-c", script, str(tmp_path), str(seconds), str(Path(__file__).parent), kind],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
     )  # fmt: skip
     lines = []
@@ -265,10 +290,11 @@ def _interrupted_simulation(tmp_path, seconds, kind):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("caller", SIMULATION_CALLERS)
 @pytest.mark.parametrize("kind", SIMULATION_EXECUTORS)
-def test_ctrl_c_lets_a_simulation_under_way_finish(tmp_path, kind):
+def test_ctrl_c_lets_a_simulation_under_way_finish(tmp_path, kind, caller):
     """On a local dask cluster too: closing it at once used to orphan the engine, which ran on."""
-    process = _interrupted_simulation(tmp_path, 2.0, kind)
+    process = _interrupted_simulation(tmp_path, 2.0, kind, caller)
     driver = int((tmp_path / "pid").read_text())
     _, err = process.communicate(timeout=60)
     assert "KeyboardInterrupt" in err and (tmp_path / "finished").exists()
@@ -285,9 +311,10 @@ def _reaped(pid):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("caller", SIMULATION_CALLERS)
 @pytest.mark.parametrize("kind", SIMULATION_EXECUTORS)
-def test_ctrl_c_again_abandons_the_simulation_under_way_and_leaves_no_process(tmp_path, kind):
-    process = _interrupted_simulation(tmp_path, 600.0, kind)
+def test_ctrl_c_again_abandons_the_simulation_under_way_and_leaves_no_process(tmp_path, kind, caller):
+    process = _interrupted_simulation(tmp_path, 600.0, kind, caller)
     driver = int((tmp_path / "pid").read_text())
     try:
         time.sleep(0.5)  # the pool is waiting for the simulation
@@ -324,13 +351,42 @@ with sigterm_interrupts(), executor(sys.argv[4], workers=1, on_interrupt=waiting
 """
 
 
+#: The same through the GA's dispatcher, which owns the executor: it waited for the simulation.
+_TERMINATED_IN_THE_GA = """
+import functools, os, sys
+sys.path.insert(0, sys.argv[3])
+import numpy as np
+import workerfaults
+from replication.casestudy.dispatch import Dispatcher
+from replication.casestudy.evaluate import executor
+from replication.sigterm import sigterm_interrupts
+
+run_dir = sys.argv[1]
+say = lambda: print("waiting", flush=True)
+factory = functools.partial(executor, sys.argv[4], workers=1, on_interrupt=say)
+fitness = functools.partial(workerfaults.sleeping_fitness, run_dir, float(sys.argv[2]))
+said = []
+
+def started():  # polled while the dispatcher waits: says once that the simulation runs
+    if not said and os.path.exists(os.path.join(run_dir, "pid")):
+        print("started", flush=True)
+        said.append(True)
+    return False
+
+with sigterm_interrupts(), Dispatcher(factory) as dispatcher:
+    dispatcher.evaluate(fitness, [np.zeros(3)], interrupted=started)
+"""
+
+
 @pytest.mark.slow
+@pytest.mark.parametrize(
+    "script", [_TERMINATED_WHILE_SIMULATING, _TERMINATED_IN_THE_GA], ids=list(SIMULATION_CALLERS)
+)
 @pytest.mark.parametrize("kind", SIMULATION_EXECUTORS)
-def test_sigterm_abandons_the_simulation_under_way_at_once(tmp_path, kind):
+def test_sigterm_abandons_the_simulation_under_way_at_once(tmp_path, kind, script):
     """Ctrl-C lets a simulation under way finish (minutes); a command told to terminate does not wait."""
     process = subprocess.Popen(
-        [sys.executable, "-c", _TERMINATED_WHILE_SIMULATING, str(tmp_path), "600", str(Path(__file__).parent),
-         kind],
+        [sys.executable, "-c", script, str(tmp_path), "600", str(Path(__file__).parent), kind],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
     )  # fmt: skip
     driver = None

@@ -70,6 +70,12 @@ def sleeping_simulation(run_dir, seconds):
     ).status
 
 
+def sleeping_fitness(run_dir, seconds, genome):
+    """A GA fitness that is a :func:`sleeping_simulation` (the genome is not looked at)."""
+    sleeping_simulation(run_dir, seconds)
+    return 1.0
+
+
 def assert_no_process_left(pgid):
     """Nothing of a finished command's process group (its pool, cluster, resource tracker) is left."""
     with pytest.raises(ProcessLookupError):

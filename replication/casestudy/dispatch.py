@@ -179,8 +179,8 @@ class Dispatcher:
     def __enter__(self) -> Dispatcher:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, kind: object, error: BaseException | None, traceback: object) -> None:
+        self.close(error)
 
     def executor(self) -> cf.Executor:
         """The executor, created now if there is none."""
@@ -190,11 +190,21 @@ class Dispatcher:
             self._context = context
         return self._executor
 
-    def close(self) -> None:
-        """Close the executor (cancelling what is pending); a later batch opens a new one."""
+    def close(self, error: BaseException | None = None) -> None:
+        """Close the executor (cancelling what is pending); a later batch opens a new one.
+
+        ``error`` is the exception that ends the caller's work, if any: the executor's context
+        (:func:`.evaluate.executor`) takes it as its own block's. After Ctrl-C it then says so
+        (its ``on_interrupt``) and waits for the simulations under way, or abandons them when
+        the command was told to terminate; closed as if nothing had happened, it waited
+        without a word, even for a command told to terminate.
+        """
         if self._context is not None:
             context, self._context, self._executor = self._context, None, None
-            context.__exit__(None, None, None)
+            if error is None:
+                context.__exit__(None, None, None)
+            else:
+                context.__exit__(type(error), error, error.__traceback__)
 
     def _observe(self, seconds: float) -> None:
         self.measured += 1

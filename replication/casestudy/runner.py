@@ -16,6 +16,7 @@ last checkpoint stays the run's state.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import time
@@ -145,10 +146,11 @@ def run_ga(
         return state
     if state is not None:
         state.seed = [int(config.seed), int(run)]  # checked by load_run when recorded; recorded from now on
-    own = dispatcher is None
-    pool = Dispatcher(pool_factory) if pool_factory is not None else dispatcher
-    assert pool is not None
-    try:
+    # a dispatcher of this run's own is closed with the exception that ends the run, if any
+    # (Ctrl-C: the executor says that it waits for the work under way); a shared one stays open
+    dispatching = Dispatcher(pool_factory) if pool_factory is not None else contextlib.nullcontext(dispatcher)
+    with dispatching as pool:
+        assert pool is not None
         with InterruptGuard() as guard:
             while state is None or state.generation < config.generations:
                 if state is None:
@@ -172,9 +174,6 @@ def run_ga(
                 if on_generation is not None:
                     on_generation(state)
                 guard.check()  # a stop requested while checkpointing: the generation is saved
-    finally:
-        if own:
-            pool.close()
     return state
 
 
