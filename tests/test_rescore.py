@@ -321,6 +321,11 @@ def test_rescore_at_the_papers_settings_reports_into_its_run_dir(tmp_path, monke
     plan = plan_casestudy(args)
     assert plan.config == GAConfig() and str(plan.out) == "run/report"
     assert plan.note.startswith("--rescore sph: the report goes to run/report/, not reports/")
+    # --quick would report into reports-quick/: the note names that one (it said reports/)
+    quick = build_parser(["casestudy"]).parse_args(["casestudy", "--quick", "--run-dir", "quick", *sph])
+    assert plan_casestudy(quick).note.startswith(
+        "--rescore sph: the report goes to quick/report/, not reports-quick/"
+    )
     explicit = build_parser(["casestudy"]).parse_args(
         ["casestudy", "--run-dir", "run", *sph, "--output-dir", "reports"]
     )

@@ -222,9 +222,10 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     rescored = getattr(args, "rescore", None) is not None
     sph_option = "--solver sph" if solver is not None else "--rescore sph" if rescored else None
     if sph_option and not note:  # the committed reports are the thin-sheet GA's, not re-scored
-        default_out = run_dir / "report"
+        # the directory the settings alone would choose: reports/, or reports-quick/ for --quick
+        default_out, instead = run_dir / "report", default_out
         note = (
-            f"{sph_option}: the report goes to {default_out}/, not {DEFAULT_DIR}/ (name a directory with "
+            f"{sph_option}: the report goes to {default_out}/, not {instead}/ (name a directory with "
             "--output-dir)"
         )
     out = Path(args.output_dir) if args.output_dir else default_out
