@@ -365,9 +365,14 @@ def test_report_with_other_settings_leaves_the_committed_page(capsys, tmp_path, 
     assert "--commits" not in err  # named on purpose: allowed (here it fails later, for want of data)
 
 
-def test_report_without_a_reports_directory(capsys, tmp_path):
+def test_report_without_a_reports_directory(capsys, tmp_path, monkeypatch):
     code, _, err = run(capsys, "report", "--output-dir", tmp_path / "none")
     assert code == 1 and one_line(err, "report") and "does not exist" in err
+    # with other settings too: it spoke of "the committed reports/performance.md, which shows 5
+    # commits" where there is none
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run(capsys, "report", "--performance", "--commits", "10")
+    assert code == 1 and one_line(err, "report") and "reports directory reports does not exist" in err, err
 
 
 def test_report_into_a_directory_where_no_file_can_be_created(capsys, tmp_path, monkeypatch):

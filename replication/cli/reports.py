@@ -156,15 +156,15 @@ def _cmd_report(args: argparse.Namespace) -> int:
     commits = DEFAULT_COMMITS if args.commits is None else args.commits
     if args.commits is not None and not args.performance:
         raise UsageError(f"--commits {args.commits} applies to performance.md only: add --performance")
+    found = lookup(out, ReportDataError, "reports directory")
+    if not found.is_dir:  # first: the refusal below speaks of the committed page as of a file that exists
+        what = "is a file" if found.exists else "does not exist"
+        raise ReportDataError(f"reports directory {out} {what}: run `replication reproduce` first")
     if commits != DEFAULT_COMMITS and not args.output_dir:  # reports/ is written with its settings only
         raise UsageError(
             f"--commits {commits} would redraw the committed {out / 'performance.md'}, which shows "
             f"{DEFAULT_COMMITS} commits: copy {out}/ and name the copy with --output-dir to draw it there"
         )
-    found = lookup(out, ReportDataError, "reports directory")
-    if not found.is_dir:
-        what = "is a file" if found.exists else "does not exist"
-        raise ReportDataError(f"reports directory {out} {what}: run `replication reproduce` first")
     results = None  # asv's default directory may be absent or empty (a fresh checkout): the archive alone
     if args.performance:
         results = args.asv_results or DEFAULT_ASV_RESULTS
