@@ -494,6 +494,73 @@ def test_abandoning_a_pool_kills_a_worker_that_does_not_unwind(tmp_path):
         future.result(timeout=20)
 
 
+def test_abandoning_a_pool_with_cancelled_calls_prints_no_traceback(tmp_path):
+    """The dispatcher cancels the calls it has not started before the pool is abandoned; the
+    pool's manager thread, told that a killed worker broke the pool, then set an exception on
+    those cancelled futures: before CPython 3.12 it died printing 'Exception in thread' and an
+    InvalidStateError traceback on the command's stderr (seen once after SIGTERM in the GA).
+    pytest reports an exception of any thread as an error of the test (warnings are errors)."""
+    import concurrent.futures as cf
+    import multiprocessing
+
+    import workerfaults
+    from replication.casestudy.evaluate import _abandon
+
+    marker = tmp_path / "deaf"
+    pool = cf.ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
+    futures = [pool.submit(workerfaults.deaf_to_sigterm, str(marker), 600.0)]
+    futures += [pool.submit(time.sleep, 0) for _ in range(4)]
+    deadline = time.monotonic() + 60
+    while not marker.exists() and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert marker.exists()  # the worker ignores SIGTERM: it is killed without an answer
+    assert [f.cancel() for f in futures] == [False, False, True, True, True]  # two are in its queue
+    manager, hook = pool._executor_manager_thread, threading.excepthook
+    _abandon(pool, grace=0.5)
+    assert not manager.is_alive() and threading.excepthook is hook  # ended, and the hook restored
+    with pytest.raises(cf.process.BrokenProcessPool):
+        futures[0].result(timeout=20)
+
+
+def test_the_manager_thread_filter_hides_nothing_else():
+    """Only the cancelled-future error of the pool's manager thread is kept quiet, and the hook is
+    restored once that thread has ended."""
+    import concurrent.futures as cf
+
+    from replication.casestudy.evaluate import _cancelled_futures_quiet
+
+    def raising(error):
+        raise error
+
+    def thread(error, name):
+        return threading.Thread(target=raising, args=(error,), name=name)
+
+    seen = []
+    previous = threading.excepthook
+
+    def record(args):
+        seen.append((args.thread.name, args.exc_type))
+
+    threading.excepthook = record
+    try:
+        for manager, others in (
+            (thread(cf.InvalidStateError("CANCELLED"), "manager"),
+             [thread(cf.InvalidStateError("CANCELLED"), "another thread")]),
+            (thread(RuntimeError("boom"), "a manager that fails otherwise"), []),
+        ):  # fmt: skip
+            with _cancelled_futures_quiet(manager):
+                for each in (manager, *others):
+                    each.start()
+                    each.join()
+            assert threading.excepthook is record
+        assert seen == [
+            ("another thread", cf.InvalidStateError),
+            ("a manager that fails otherwise", RuntimeError),
+        ]
+    finally:
+        threading.excepthook = previous
+
+
 def test_an_abandoned_worker_ends_once_its_task_has_unwound(tmp_path):
     """A pool's worker loop takes the SystemExit of SIGTERM for its task's result and takes the
     next call: workers went on to queued work, or waited for more, until killed after the grace

@@ -19,6 +19,7 @@ import gc
 import multiprocessing.resource_tracker
 import os
 import signal
+import threading
 import time
 import warnings
 from collections.abc import Callable, Iterator, Sequence
@@ -348,10 +349,46 @@ def _abandon(pool: cf.ProcessPoolExecutor, grace: float = ABANDON_GRACE) -> None
     may have closed its handles; it ends by itself once the workers are gone.
     """
     processes = list((getattr(pool, "_processes", None) or {}).values())  # (3.14: terminate_workers())
-    _end(processes, grace)
     manager = getattr(pool, "_executor_manager_thread", None)
-    if manager is not None:
-        manager.join(grace)
+    with _cancelled_futures_quiet(manager):
+        _end(processes, grace)
+        if manager is not None:
+            manager.join(grace)
+
+
+@contextlib.contextmanager
+def _cancelled_futures_quiet(manager: threading.Thread | None) -> Iterator[None]:
+    """The pool's manager thread does not print a traceback for a cancelled future.
+
+    Once its workers are ended, the pool's manager thread marks every pending work item
+    failed. Before CPython 3.12 (gh-107219) it also tried the futures cancelled a moment
+    earlier (the dispatcher cancels what it has not started), raised ``InvalidStateError``
+    and died printing "Exception in thread" and a traceback on the command's stderr, after
+    Ctrl-C had been pressed twice or SIGTERM received, both with a worker that was killed
+    before it could answer. Only that exception of that thread is kept quiet; the hook is
+    restored once the thread has ended (a thread still alive keeps the filter, which only
+    ever concerns it).
+    """
+    if manager is None:
+        yield
+        return
+    previous = threading.excepthook
+
+    def hook(args: threading.ExceptHookArgs) -> None:
+        if (
+            args.thread is manager
+            and args.exc_type is not None
+            and issubclass(args.exc_type, cf.InvalidStateError)
+        ):
+            return
+        previous(args)
+
+    threading.excepthook = hook
+    try:
+        yield
+    finally:
+        if not manager.is_alive() and threading.excepthook is hook:
+            threading.excepthook = previous
 
 
 def _end(processes: list, grace: float = ABANDON_GRACE) -> None:
