@@ -167,6 +167,32 @@ def test_interrupted_write_leaves_no_partial_file(surface, tmp_path, monkeypatch
     assert os.listdir(tmp_path) == ["s.vtk"]
 
 
+@pytest.mark.parametrize("signum", ["SIGINT", "SIGTERM"])
+def test_an_interrupt_as_the_temporary_file_is_made_leaves_none(tmp_path, monkeypatch, signum):
+    """Ctrl-C, or a SIGTERM taken as one, that arrives just after the temporary file exists and
+    before the writer has named it: a stopped GA run kept a checkpoint's temporary (seen once in
+    the SIGTERM test of the interrupts)."""
+    import signal
+    import tempfile
+
+    from replication.io.atomic import atomic_write_text
+    from replication.sigterm import sigterm_interrupts
+
+    target = tmp_path / "run-0.json"
+    target.write_text("old\n")
+    real = tempfile.mkstemp
+
+    def made_then_signalled(*args, **kwargs):
+        made = real(*args, **kwargs)
+        os.kill(os.getpid(), getattr(signal, signum))  # handled at the next line of Python
+        return made
+
+    monkeypatch.setattr(atomic_module.tempfile, "mkstemp", made_then_signalled)
+    with pytest.raises(KeyboardInterrupt), sigterm_interrupts():  # (raised again at its end if caught in it)
+        atomic_write_text(target, "new\n")
+    assert sorted(os.listdir(tmp_path)) == ["run-0.json"] and target.read_text() == "old\n"
+
+
 def test_failed_vtp_write_leaves_nothing(surface, tmp_path, monkeypatch):
     def boom(*args, **kwargs):
         raise RuntimeError("disk full")

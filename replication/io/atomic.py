@@ -190,15 +190,16 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """
     final = check_output_path(path)
     _remove_abandoned(final)
+    tmp: Path | None = None
     try:
-        fd, tmp_name = tempfile.mkstemp(
-            prefix=f".{final.name}.{writer_tag()}", suffix=f".tmp{final.suffix}", dir=final.parent
-        )
-    except OSError as exc:
-        raise OutputError(f"cannot write {final}: {exc.strerror or exc}") from exc
-    os.close(fd)
-    tmp = Path(tmp_name)
-    try:
+        # a Ctrl-C or SIGTERM between creating the file and naming it here left it behind (a
+        # stopped GA run kept a checkpoint's temporary): held until it is named, then raised
+        with interrupt_deferred():
+            fd, tmp_name = tempfile.mkstemp(
+                prefix=f".{final.name}.{writer_tag()}", suffix=f".tmp{final.suffix}", dir=final.parent
+            )
+            tmp = Path(tmp_name)
+            os.close(fd)
         yield tmp
         with open(tmp, "rb+") as handle:  # make the bytes durable before the rename
             os.fsync(handle.fileno())
@@ -209,8 +210,9 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         else:
             staged.append((tmp, final))
     except BaseException as exc:
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
+        if tmp is not None:
+            with contextlib.suppress(FileNotFoundError):
+                tmp.unlink()
         if isinstance(exc, OSError) and not isinstance(exc, OutputError):
             raise OutputError(f"cannot write {final}: {exc.strerror or exc}") from exc
         raise
