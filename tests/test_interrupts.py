@@ -245,22 +245,34 @@ with executor(sys.argv[4], workers=1, on_interrupt=lambda: print("stopping", flu
 #: The same, as the GA evaluates: through the dispatcher that owns the executor
 #: (``replication casestudy --solver sph``). Its executor was closed as if nothing had happened:
 #: the command waited for the simulation without saying so, and did not abandon it when told to
-#: terminate.
-_SIMULATING_IN_THE_GA = """
+#: terminate. ``argv[5]``: "interrupt" (Ctrl-C once the simulation runs, as the GA's guard
+#: reports it) or "terminate" (say "started" once, then wait for a SIGTERM from outside).
+_IN_THE_GA = """
 import functools, os, sys
 sys.path.insert(0, sys.argv[3])
 import numpy as np
 import workerfaults
 from replication.casestudy.dispatch import Dispatcher
 from replication.casestudy.evaluate import executor
+from replication.sigterm import sigterm_interrupts
 
-run_dir = sys.argv[1]
-say = lambda: print("stopping", flush=True)
+run_dir, mode = sys.argv[1], sys.argv[5]
+say = lambda: print("stopping" if mode == "interrupt" else "waiting", flush=True)
 factory = functools.partial(executor, sys.argv[4], workers=1, on_interrupt=say)
 fitness = functools.partial(workerfaults.sleeping_fitness, run_dir, float(sys.argv[2]))
-started = lambda: os.path.exists(os.path.join(run_dir, "pid"))
-with Dispatcher(factory) as dispatcher:
-    dispatcher.evaluate(fitness, [np.zeros(3)], interrupted=started)  # Ctrl-C once the simulation runs
+said = []
+
+def started():  # polled while the dispatcher waits
+    running = os.path.exists(os.path.join(run_dir, "pid"))
+    if mode == "interrupt":
+        return running
+    if running and not said:
+        print("started", flush=True)
+        said.append(True)
+    return False
+
+with sigterm_interrupts(), Dispatcher(factory) as dispatcher:
+    dispatcher.evaluate(fitness, [np.zeros(3)], interrupted=started)
 """
 
 #: Where the interrupted simulation runs: a process pool, and a local dask cluster if installed.
@@ -268,7 +280,7 @@ SIMULATION_EXECUTORS = ["process", pytest.param("dask", marks=pytest.mark.skipif
     not _has_dask(), reason="dask is not installed"))]  # fmt: skip
 
 #: How it is reached: the executor itself, or the GA's dispatcher that owns it.
-SIMULATION_CALLERS = {"executor": _SIMULATING, "GA dispatcher": _SIMULATING_IN_THE_GA}
+SIMULATION_CALLERS = {"executor": _SIMULATING, "GA dispatcher": _IN_THE_GA}
 
 #: (executor, caller) pairs: both executors directly, and the dispatcher on a process pool. The
 #: dispatcher's part is to hand the exception to the executor's context, whichever it is; what
@@ -285,7 +297,8 @@ SIMULATION_CASES = [
 def _interrupted_simulation(tmp_path, seconds, kind, caller="executor"):
     script = SIMULATION_CALLERS[caller]
     process = subprocess.Popen(
-        [sys.executable, "-c", script, str(tmp_path), str(seconds), str(Path(__file__).parent), kind],
+        [sys.executable, "-c", script, str(tmp_path), str(seconds), str(Path(__file__).parent), kind,
+         "interrupt"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
     )  # fmt: skip
     lines = []
@@ -360,33 +373,7 @@ with sigterm_interrupts(), executor(sys.argv[4], workers=1, on_interrupt=waiting
 """
 
 
-#: The same through the GA's dispatcher, which owns the executor: it waited for the simulation.
-_TERMINATED_IN_THE_GA = """
-import functools, os, sys
-sys.path.insert(0, sys.argv[3])
-import numpy as np
-import workerfaults
-from replication.casestudy.dispatch import Dispatcher
-from replication.casestudy.evaluate import executor
-from replication.sigterm import sigterm_interrupts
-
-run_dir = sys.argv[1]
-say = lambda: print("waiting", flush=True)
-factory = functools.partial(executor, sys.argv[4], workers=1, on_interrupt=say)
-fitness = functools.partial(workerfaults.sleeping_fitness, run_dir, float(sys.argv[2]))
-said = []
-
-def started():  # polled while the dispatcher waits: says once that the simulation runs
-    if not said and os.path.exists(os.path.join(run_dir, "pid")):
-        print("started", flush=True)
-        said.append(True)
-    return False
-
-with sigterm_interrupts(), Dispatcher(factory) as dispatcher:
-    dispatcher.evaluate(fitness, [np.zeros(3)], interrupted=started)
-"""
-
-TERMINATED_CALLERS = {"executor": _TERMINATED_WHILE_SIMULATING, "GA dispatcher": _TERMINATED_IN_THE_GA}
+TERMINATED_CALLERS = {"executor": _TERMINATED_WHILE_SIMULATING, "GA dispatcher": _IN_THE_GA}
 
 
 @pytest.mark.slow
@@ -395,7 +382,7 @@ def test_sigterm_abandons_the_simulation_under_way_at_once(tmp_path, kind, calle
     """Ctrl-C lets a simulation under way finish (minutes); a command told to terminate does not wait."""
     process = subprocess.Popen(
         [sys.executable, "-c", TERMINATED_CALLERS[caller], str(tmp_path), "600", str(Path(__file__).parent),
-         kind],
+         kind, "terminate"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
     )  # fmt: skip
     driver = None
