@@ -84,7 +84,7 @@ def _duplicates_expected() -> Iterator[None]:
 #: signature: numba's kernels of small clouds, once loaded, serve every later call instead
 #: of the ahead-of-time ones, whose calls would compile nothing. Every kernel of the table is
 #: in one group (tested).
-TRIANGULATION_KERNELS = ("single", "column_spreads", "raster", "gather", "renumber")
+TRIANGULATION_KERNELS = ("single", "column_spreads", "raster", "number", "gather", "renumber")
 INTERPOLATION_KERNELS = ("locate", "barycentric", "exits", "nearest")
 JET_KERNELS = ("sheet_prepare", "sheet_trace", "sheet_orientations", "sheet_first_overlap")
 

@@ -342,9 +342,10 @@ def test_gridding_kernels_match_numba(n, seed, lattice):
           np.zeros(shape), outputs=(7, 8))  # fmt: skip
     points, m = f(surface.points), surface.n_vertices
     order = f(np.random.default_rng(seed).permutation(m).astype(np.int32))
-    _both("gather", points, f(np.array([1, 0, 2])), order, 0, m, np.zeros(m, np.int32), np.zeros((m, 2)),
-          np.zeros(m), np.zeros(4), outputs=(5, 6, 7, 8))  # fmt: skip
+    _both("number", order, 0, m, np.full(m, -1, np.int32), outputs=(3,))
     position = np.argsort(order).astype(np.int32)
+    _both("gather", points, f(np.array([1, 0, 2])), position, 0, m, np.zeros((m, 2)), np.zeros(m),
+          np.zeros(4), outputs=(5, 6, 7))  # fmt: skip
     _both("renumber", f(surface.triangles), position, 0, surface.n_triangles,
           np.zeros((surface.n_triangles, 3), np.int32), outputs=(4,))  # fmt: skip
     nbr, far = f(surface.neighbors), f(far)

@@ -319,26 +319,50 @@ def test_a_large_cloud_with_duplicates_grids_as_with_qhull():
         dataclasses.replace(surface, vertex_order=surface.vertex_order[:10])
 
 
+@pytest.mark.parametrize("n", [5000, 60_000])  # one piece; pieces on threads (over 100 000 triangles)
 @pytest.mark.parametrize("how", ["repeats", "out of range"])
-def test_a_vertex_order_that_is_no_permutation_is_an_error_not_a_crash(how):
+def test_a_vertex_order_that_is_no_permutation_is_an_error_not_a_crash(how, n):
     """The gridding indexes with Surface.vertex_order unchecked; one of the right shape that
     repeats a vertex, or names one past the end, crashed fit_nurbs (segmentation fault)."""
     import dataclasses
 
     from replication.surfaces import adt
 
-    points = np.random.default_rng(3).random((5000, 3))
+    points = np.random.default_rng(3).random((n, 3))
     surface = adt(points)
     order = np.array(surface.vertex_order)
     if how == "repeats":
         order[1] = order[0]
-        match = r"permutation of 0..4999: it repeats a vertex"
+        match = rf"permutation of 0..{n - 1}: it repeats a vertex"
     else:
         order[0] = 10**9
-        match = r"permutation of 0..4999, got values 0..1000000000"
+        match = rf"permutation of 0..{n - 1}, got values 0..1000000000"
     bad = dataclasses.replace(surface, vertex_order=order)
     with pytest.raises(InputError, match=match):
         fit_nurbs(points, evaluator="fast", tessellation=None, triangulation=bad)
+
+
+@pytest.mark.filterwarnings("ignore::replication.errors.DuplicatePointsWarning")
+@pytest.mark.parametrize("pieces", [False, True])
+@pytest.mark.parametrize("step", [None, 0.5])
+def test_relabel_puts_each_vertex_where_the_order_says(monkeypatch, pieces, step):
+    """Known answer: point ``order[k]`` becomes vertex k (its (u, v) and depth), each triangle
+    names the new numbers, and the bounds are the points' own; on one thread and in pieces
+    (the gather writes each point where the order puts it, reading the points in storage
+    order), with duplicates merged on a lattice too."""
+    from replication.surfaces import _grid, adt, random_cloud
+
+    surface = adt(random_cloud(3000, step=step, rng=7))
+    if pieces:
+        monkeypatch.setattr(_grid, "_PIECES_MIN", 1)
+    order = surface.vertex_order
+    axes = np.array([*surface.projection_axes, surface.depth_axis])
+    xy, depth, tri, bounds = _grid.relabel(surface.points, axes, surface.triangles, order)
+    np.testing.assert_array_equal(xy, surface.points[order][:, axes[:2]])
+    np.testing.assert_array_equal(depth, surface.points[order, axes[2]])
+    np.testing.assert_array_equal(order[tri], surface.triangles)
+    uv = surface.projected()
+    assert bounds == (uv[:, 0].min(), uv[:, 0].max(), uv[:, 1].min(), uv[:, 1].max())
 
 
 def test_a_cloud_too_small_for_the_gridding_is_an_input_error():

@@ -80,28 +80,33 @@ def relabel(points: np.ndarray, axes: np.ndarray, triangles: np.ndarray, order: 
     xy = np.empty((m, 2))
     values = np.empty(m)
     tri = np.empty((count, 3), dtype=np.int32)
-    if count < _PIECES_MIN:
-        bounds = np.empty((1, 4))
-        kernel("gather")(points, axes, order, 0, m, position, xy, values, bounds[0])
+    pieces = 1 if count < _PIECES_MIN else _RUNS
+    cut = [m * r // pieces for r in range(pieces + 1)]
+    bounds = np.empty((pieces, 4))
+    if pieces == 1:
+        kernel("number")(order, 0, m, position)
     else:
-        from replication.surfaces._raster import _gather
+        from replication.surfaces._raster import _number
         from replication.surfaces._threads import run
 
-        cut = [m * r // _RUNS for r in range(_RUNS + 1)]
-        bounds = np.empty((_RUNS, 4))
-        run([
-            (lambda r=r: _gather(points, axes, order, cut[r], cut[r + 1], position, xy, values, bounds[r]))
-            for r in range(_RUNS)
-        ])  # fmt: skip
+        run([(lambda r=r: _number(order, cut[r], cut[r + 1], position)) for r in range(pieces)])
     if n and position.min() < 0:  # n entries in range, yet a point was never numbered: one came twice
         raise InputError(f"the vertex order must be a permutation of 0..{n - 1}: it repeats a vertex")
-    if count < _PIECES_MIN:
+    if pieces == 1:
+        kernel("gather")(points, axes, position, 0, n, xy, values, bounds[0])
+    else:
+        from replication.surfaces._raster import _gather
+
+        run([
+            (lambda r=r: _gather(points, axes, position, cut[r], cut[r + 1], xy, values, bounds[r]))
+            for r in range(pieces)
+        ])  # fmt: skip
+    if pieces == 1:
         kernel("renumber")(triangles, position, 0, count, tri)
     else:
         from replication.surfaces._raster import _renumber
-        from replication.surfaces._threads import run
 
-        cut = [count * r // _RUNS for r in range(_RUNS + 1)]
-        run([(lambda r=r: _renumber(triangles, position, cut[r], cut[r + 1], tri)) for r in range(_RUNS)])
+        cut = [count * r // pieces for r in range(pieces + 1)]
+        run([(lambda r=r: _renumber(triangles, position, cut[r], cut[r + 1], tri)) for r in range(pieces)])
     lo, hi = bounds.min(axis=0), bounds.max(axis=0)
     return xy, values, tri, (float(lo[0]), float(hi[1]), float(lo[2]), float(hi[3]))

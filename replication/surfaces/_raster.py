@@ -164,24 +164,43 @@ def _raster_shared(xy, tri, nbr, values, u, v, lo, hi, owner, out):
 
 
 @njit(cache=True, nogil=True)
-def _gather(points, axes, order, lo, hi, position, xy, values, bounds):
-    """Points lo..hi-1 of ``order``; ``bounds``: their (min u, max u, min v, max v)."""
-    bounds[0] = np.inf
-    bounds[1] = -np.inf
-    bounds[2] = np.inf
-    bounds[3] = -np.inf
+def _number(order, lo, hi, position):
+    """``position[order[k]] = k`` for k in lo..hi-1: the inverse of the vertex order."""
     for k in range(lo, hi):
-        i = order[k]
-        position[i] = k
-        u = points[i, axes[0]]
-        v = points[i, axes[1]]
+        position[order[k]] = k
+
+
+@njit(cache=True, nogil=True)
+def _gather(points, axes, position, lo, hi, xy, values, bounds):
+    """Copy points lo..hi-1 (columns ``axes``) to their rows ``position`` of ``xy`` and
+    ``values``; ``bounds``: their (min u, max u, min v, max v).
+
+    The points are read in storage order and written where the vertex order puts them:
+    reading them in the vertex order instead (one random read of a row per point) took four
+    times as long at a million points.
+    """
+    a0 = axes[0]
+    a1 = axes[1]
+    a2 = axes[2]
+    u_lo = np.inf
+    u_hi = -np.inf
+    v_lo = np.inf
+    v_hi = -np.inf
+    for i in range(lo, hi):
+        k = position[i]
+        u = points[i, a0]
+        v = points[i, a1]
         xy[k, 0] = u
         xy[k, 1] = v
-        values[k] = points[i, axes[2]]
-        bounds[0] = min(bounds[0], u)
-        bounds[1] = max(bounds[1], u)
-        bounds[2] = min(bounds[2], v)
-        bounds[3] = max(bounds[3], v)
+        values[k] = points[i, a2]
+        u_lo = min(u_lo, u)
+        u_hi = max(u_hi, u)
+        v_lo = min(v_lo, v)
+        v_hi = max(v_hi, v)
+    bounds[0] = u_lo
+    bounds[1] = u_hi
+    bounds[2] = v_lo
+    bounds[3] = v_hi
 
 
 @njit(cache=True, nogil=True)
