@@ -446,6 +446,6 @@ def test_the_files_the_help_examples_name_can_be_made_as_the_help_says(tmp_path,
         subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path)
     assert main(["force", "bucket.csv"]) == 0
     assert main(["adt", "bucket.csv", "--depth", "z", "-o", "my_mesh.vtp"]) == 0
-    assert main(["force", "my_mesh.vtp", "--full-jet", "--center", "18", "0", "--json"]) == 0
+    assert main(["force", "my_mesh.vtp", "--json"]) == 0
     assert main(["adt", "sphere.xyz", "--split", "z=0", "-o", "closed.vtk"]) == 0
     assert "closed (watertight)" in capsys.readouterr().out

@@ -502,6 +502,31 @@ def test_jet_that_misses_prints_zero_not_minus_zero(capsys, tmp_path):
     assert json.loads(out)["axial_force_N"] == 0 and "-0.0" not in out.split('"axial_force_N"')[1][:8]
 
 
+def test_a_jet_that_partly_misses_the_surface_says_how_much(capsys, tmp_path):
+    # was: silence, "4.408 N" for the full jet on a mesh in y >= 0 that half the jet passed by
+    # (the --full-jet example of `force --help`, on the mesh the help says how to make)
+    from replication.casestudy.shapes import pelton_bucket_cloud
+
+    save_cloud(pelton_bucket_cloud(), tmp_path / "bucket.csv")
+    code, out, err = run(capsys, "force", tmp_path / "bucket.csv")  # the half jet strikes it whole
+    assert code == 0 and "0.5522 kg/s, 0.5522 kg/s on the surface" in out and err == ""
+    code, out, err = run(capsys, "force", tmp_path / "bucket.csv", "--full-jet", "--center", "18", "0")
+    assert code == 0 and "1.104 kg/s, 0.5522 kg/s on the surface" in out and err.count("\n") == 1
+    assert err.startswith("warning: 50 % of the jet's mass flow (0.5522 of 1.104 kg/s, 101 of 202 streamlets")
+    assert "the surface lies in y >= 0 only: the full jet's other half passes it by" in err
+    mirrored = pelton_bucket_cloud() * [1.0, -1.0, 1.0]
+    save_cloud(mirrored, tmp_path / "mirrored.csv")
+    code, out, err = run(capsys, "force", tmp_path / "mirrored.csv", "--full-jet", "--center", "18", "0")
+    assert code == 0 and "the surface lies in y <= 0 only" in err
+    code, out, err = run(capsys, "force", tmp_path / "bucket.csv", "--center", "30", "0")
+    missed = json.loads(run(capsys, "force", tmp_path / "bucket.csv", "--center", "30", "0", "--json")[1])
+    share = 1 - missed["mass_flow_hit_kg_s"] / missed["mass_flow_total_kg_s"]
+    assert 0 < share < 0.5 and err.startswith(f"warning: {100 * share:.2g} % of the jet's mass flow")
+    assert err.rstrip().endswith("check --center and where the surface lies") and err.count("\n") == 1
+    code, _, err = run(capsys, "force", tmp_path / "bucket.csv", "--center", "30", "0", "--json")
+    assert code == 0 and "misses the surface" in err  # on stderr whatever the output format
+
+
 def test_a_jet_coarser_than_the_surface_says_so_not_that_it_misses(capsys, tmp_path):
     # was: "the jet misses the surface ... (check --center ...)" for a 1000 mm jet over the whole surface
     save_cloud(np.random.default_rng(1).random((101, 3)) * [36, 30, 13], tmp_path / "c.csv")

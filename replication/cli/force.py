@@ -23,8 +23,8 @@ examples:
   replication force bucket.csv
       the paper's half jet (18 mm, 4.34 m/s, centred at x = 18, y = 0 mm) on the ADT surface
       (depth axis z) of a point cloud in millimetres
-  replication force my_mesh.vtp --full-jet --center 18 0 --json
-      any triangulated height field z(x, y) (.vtk or .vtp), the whole jet, one JSON object
+  replication force my_mesh.vtp --json
+      any triangulated height field z(x, y) (.vtk or .vtp), one JSON object
   replication force bucket.csv --solver sph --particle-radius 0.75 --duration 20
       an SPH simulation with SPlisHSPlasH instead of the thin-sheet model (pip install ".[sph]")
 
@@ -38,7 +38,10 @@ spreads over the surface at the jet speed; the sheet follows concave creases, se
 convex ones and may strike the surface again; the force is mass flow x (velocity in -
 velocity out). The axial force is the component along the jet (positive when the jet pushes
 the surface along -z). With the default half jet the surface must lie in y >= 0: y = 0 is
-the symmetry (splitter) plane, as in the paper's half-domain simulation. Lengths are in mm.
+the symmetry (splitter) plane, as in the paper's half-domain simulation; --full-jet sends the
+whole jet (off the centre line too) onto a surface spanning both sides of y = 0. A jet that
+partly misses the surface is reported with the share of its mass flow that misses. Lengths
+are in mm.
 """  # noqa: E501 - a command to copy whole
 
 
@@ -112,6 +115,9 @@ def _cmd_force(args: argparse.Namespace) -> int:
             "so the force is 0 N (check --center and where the surface lies)",
             file=sys.stderr,
         )
+    partly_missed = _partly_missed(result, config, points)
+    if partly_missed:
+        print(partly_missed, file=sys.stderr)
     report: dict[str, Any] = {
         **shared,
         **result.as_dict(),
@@ -139,6 +145,30 @@ def _cmd_force(args: argparse.Namespace) -> int:
     if merged:
         print(f"merged {merged} point(s) sharing an (x, y) position (mean height)")
     return 0
+
+
+def _partly_missed(result: Any, config: Any, points: Any) -> str | None:
+    """The warning for a jet of which some streamlets, but not all, miss the surface: the
+    force is then that of the part that strikes it, which a user reading the force alone
+    would not know (a half-jet mesh given ``--full-jet`` lost half the jet silently)."""
+    total, hit = result.mass_flow_total, result.mass_flow_hit
+    if result.n_streamlets_hit == 0 or result.n_streamlets_hit == result.n_streamlets:
+        return None
+    missed = total - hit
+    y = points[:, 1]
+    if config.full_jet and (y.min() >= 0 or y.max() <= 0):
+        side = ">=" if y.min() >= 0 else "<="
+        hint = (
+            f"the surface lies in y {side} 0 only: the full jet's other half passes it by "
+            "(without --full-jet the jet is halved at its symmetry plane y = 0)"
+        )
+    else:
+        hint = "check --center and where the surface lies"
+    return (
+        f"warning: {100 * missed / total:.2g} % of the jet's mass flow ({missed:.4g} of {total:.4g} kg/s, "
+        f"{result.n_streamlets - result.n_streamlets_hit} of {result.n_streamlets} streamlets) misses the "
+        f"surface, and the force is that of the rest; {hint}"
+    )
 
 
 def shared_report(
