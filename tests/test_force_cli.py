@@ -315,3 +315,38 @@ def test_a_resolution_beyond_the_model_s_is_a_misused_option(capsys, bucket_csv)
         err = capsys.readouterr().err
         assert exc.value.code == 2 and err.count("\n") == 1
         assert f"argument --resolution: expected an integer from 1 to 256, got {value}" in err
+
+
+@pytest.mark.parametrize("full_jet", [False, True])
+def test_an_sph_run_says_before_it_starts_that_part_of_the_jet_will_miss(
+    capsys, bucket_csv, tmp_path, monkeypatch, full_jet
+):
+    """A simulation takes minutes: that half the full jet passes a surface in y >= 0 by is
+    known from the thin-sheet model's streamlets in milliseconds, and said first; a jet that
+    strikes the surface whole says nothing."""
+    import replication.casestudy.sph as sph
+    from tests.sph_fake import fake_sph
+
+    said = []
+
+    def simulated(*a, progress=None, **k):
+        said.append(capsys.readouterr().err)  # what was printed before the simulation started
+        return fake_sph(*a, **k)
+
+    monkeypatch.setattr(sph, "require_engine", lambda: None)
+    monkeypatch.setattr(sph, "sph_force", simulated)
+    jet = ["--full-jet", "--center", "18", "0"] if full_jet else []
+    code, _, err = run(
+        capsys, "force", str(bucket_csv), "--solver", "sph", "--run-dir", str(tmp_path / "r"), *jet
+    )
+    assert code == 0 and "misses" not in err  # after the simulation: its progress only
+    (before,) = said
+    if full_jet:
+        assert before.startswith(
+            "warning: 50 % of the jet's mass flow (0.5522 of 1.104 kg/s, 101 of 202 of the thin-sheet "
+            "model's streamlets) misses the surface, and the simulated force will be that of the rest; "
+            "the surface lies in y >= 0 only"
+        )
+        assert before.count("warning") == 1
+    else:
+        assert "warning" not in before and "misses" not in before

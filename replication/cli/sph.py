@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import math
+import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -199,6 +200,10 @@ def force_sph(
     settings = _settings(args)
     timeline(settings, config.velocity, config.diameter)  # a duration with no window: refuse first
     require_engine()
+    from replication.cli.force import sph_coverage_warning
+
+    if warning := sph_coverage_warning(points, triangles, config):
+        print(warning, file=sys.stderr)
     total_ms = round(1e3 * settings.duration)
     with _run_dir_held(args.run_dir), show_progress(total_ms, "SPH simulated time (ms)") as bar:
 
