@@ -200,7 +200,7 @@ def force_sph(
     settings = _settings(args)
     timeline(settings, config.velocity, config.diameter)  # a duration with no window: refuse first
     require_engine()
-    from replication.cli.force import sph_coverage_warning
+    from replication.cli.jet_misses import sph_coverage_warning
 
     if warning := sph_coverage_warning(points, triangles, config):
         print(warning, file=sys.stderr)
