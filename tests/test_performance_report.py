@@ -536,3 +536,30 @@ def test_report_performance_writes_data_only_when_it_merges_asv_results(history,
     assert main(["report", "--performance", "--output-dir", str(out)]) == 0
     assert checked == [("figures", "data"), ("figures",)]
     assert (out / "data" / "performance_asv.csv").read_bytes() == archive
+
+
+def test_a_run_of_some_benchmarks_on_a_new_commit_hides_no_other_benchmark_s_history(tmp_path):
+    """Each benchmark's table shows its own most recent commits: measuring one benchmark on
+    three new commits took every other benchmark's table off a five-commit page (asv's whole
+    suite had last run on an older commit)."""
+    full = {
+        "b.T.time_adt": timing([1e-4, 1e-3]),
+        "b.time_plain": timing([1e-3]),
+        "b.track_bytes": [[1000], [], "v1"],
+    }
+    runs = [(f"{k}{k}{k}{k}{k}{k}{k}{k}00", int(k), full) for k in "12"]
+    runs += [(f"{k}{k}{k}{k}{k}{k}{k}{k}00", 2 + n, {"b.track_bytes": [[1000 + n], [], "v1"]})
+             for n, k in enumerate("abc", 1)]  # fmt: skip
+    results = write_results(tmp_path, runs)
+    for commits, plain_heads, bytes_heads in (
+        (5, "11111111 22222222", "11111111 22222222 aaaaaaaa bbbbbbbb cccccccc"),
+        (3, "11111111 22222222", "aaaaaaaa bbbbbbbb cccccccc"),  # the old page: the other tables gone
+        (2, "11111111 22222222", "bbbbbbbb cccccccc"),
+    ):
+        text = render_performance(results, tmp_path / f"out{commits}", commits=commits).read_text()
+        measured = _section(text, "## Machine `m1`")
+        for name, heads in (("b.time_plain", plain_heads), ("b.T.time_adt", plain_heads),
+                            ("b.track_bytes", bytes_heads)):  # fmt: skip
+            head = measured.split(f"### `{name}`", 1)[1].split("\n\n", 2)[1].splitlines()[0]
+            assert re.findall(r"`(\w{8})` \(", head) == heads.split(), (name, commits, head)
+    assert "1,003 B" in measured and "1,000 B" not in measured.split("### `b.track_bytes`")[1].split("###")[0]

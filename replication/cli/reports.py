@@ -34,7 +34,8 @@ from replication.report.pages import PAGE_TITLES
 
 #: asv's results directory in a checkout (``results_dir`` of asv.conf.json).
 DEFAULT_ASV_RESULTS = ".asv/results"
-#: How many recent commits the committed performance.md shows (``report --commits``).
+#: How many recent commits each benchmark's history on the committed performance.md shows
+#: (``report --commits``).
 DEFAULT_COMMITS = 5
 #: The markdown files ``replication report`` may write.
 RENDERED = tuple(PAGE_TITLES)
@@ -163,7 +164,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
     if commits != DEFAULT_COMMITS and not args.output_dir:  # reports/ is written with its settings only
         raise UsageError(
             f"--commits {commits} would redraw the committed {out / 'performance.md'}, which shows "
-            f"{DEFAULT_COMMITS} commits: copy {out}/ and name the copy with --output-dir to draw it there"
+            f"{DEFAULT_COMMITS} commits per benchmark: copy {out}/ and name the copy with --output-dir "
+            "to draw it there"
         )
     results = None  # asv's default directory may be absent or empty (a fresh checkout): the archive alone
     if args.performance:
@@ -415,8 +417,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--commits",
         type=positive_int,
         metavar="N",
-        help=f"how many recent commits performance.md shows (default {DEFAULT_COMMITS}; another N "
-        "only with --output-dir, so that the committed page keeps its settings)",
+        help=f"how many recent commits each benchmark's history in performance.md shows (default "
+        f"{DEFAULT_COMMITS}; another N only with --output-dir, so that the committed page keeps its "
+        "settings)",
     )
     p.add_argument(
         "--readme",

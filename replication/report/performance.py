@@ -62,28 +62,41 @@ def _latest(frame: pd.DataFrame) -> pd.DataFrame:
     )
 
 
-def _history(frame: pd.DataFrame, commits: list[str]) -> list[str]:
+def _shown(frame: pd.DataFrame, order: list[str], count: int) -> pd.DataFrame:
+    """The rows a history of ``count`` commits shows: for each benchmark, the latest rows of
+    the ``count`` most recent of the commits ``order`` (oldest first) that measured it. A run
+    of a few benchmarks on a new commit then hides no other benchmark's history."""
+    frame = _latest(frame[frame["commit"].isin(order)])
+    rank = {c: k for k, c in enumerate(order)}
+    kept = []
+    for _, bench in frame.groupby("benchmark", sort=True):
+        recent = sorted(set(bench["commit"]), key=rank.__getitem__)[-count:]
+        kept.append(bench[bench["commit"].isin(recent)])
+    return pd.concat(kept) if kept else frame
+
+
+def _history(frame: pd.DataFrame, order: list[str], count: int) -> list[str]:
+    """One table per benchmark: its ``count`` most recent measured commits of ``order``."""
     lines: list[str] = []
-    frame = _latest(frame[frame["commit"].isin(commits)])
-    for name, bench in frame.groupby("benchmark", sort=True):
+    for name, bench in _shown(frame, order, count).groupby("benchmark", sort=True):
         by_commit = {c: g for c, g in bench.groupby("commit")}
-        heads, order = [], [c for c in commits if c in by_commit]
-        for c in order:
+        heads, columns = [], [c for c in order if c in by_commit]
+        for c in columns:
             heads.append(f"`{c}` ({by_commit[c]['date'].iloc[0]:%Y-%m-%d}{_samples_note(by_commit[c])})")
         rows = []
         for params, group in bench.sort_values("param_index").groupby("params", sort=False):
             cells = {r["commit"]: format_cell(r) for _, r in group.iterrows()}
-            rows.append([params or "–"] + [cells.get(c, "–") for c in order])
+            rows.append([params or "–"] + [cells.get(c, "–") for c in columns])
         lines += [f"### `{name}`", "", table(rows, ["parameters", *heads]), ""]
     return lines
 
 
 def _recovered_note(
-    frame: pd.DataFrame, shown: list[str], goals: list[tuple[Goal, pd.Series | None]]
+    frame: pd.DataFrame, shown: pd.DataFrame, goals: list[tuple[Goal, pd.Series | None]]
 ) -> list[str]:
-    """Which of the values shown (the history and comparison of ``shown`` commits, the goals
+    """Which of the values shown (the history's and comparison's rows ``shown``, the goals
     table's readings ``goals``) were recovered from an earlier page rather than read from asv."""
-    rows = [_latest(frame[frame["commit"].isin(shown)])]
+    rows = [shown]
     rows += [row.to_frame().T for _, row in goals if row is not None]
     shown_rows = pd.concat(rows, ignore_index=True)
     if shown_rows.empty or not (shown_rows["source"] == "page").any():
@@ -223,7 +236,8 @@ def render_performance(
     out_dir : path
         The reports directory: ``performance.md`` goes there, the archive in its ``data/``.
     commits : int
-        How many of the most recent measured commits each machine's history shows.
+        How many commits each benchmark's history shows: the most recent measured commits
+        of its machine that measured it.
     compare : (str, str), optional
         The commits to compare (hash prefixes, older first); by default the two most recent
         measured commits of each machine.
@@ -272,7 +286,11 @@ def render_performance(
         lines += [f"## Machine `{machine}`", ""]
         pair = _pick(measured, compare)
         goals = goal_rows(by_machine, measured)
-        lines += _recovered_note(by_machine, [*measured[-commits:], *(pair or ())], goals)
+        shown = [
+            _shown(by_machine, measured, commits),
+            _latest(by_machine[by_machine["commit"].isin(pair or ())]),
+        ]
+        lines += _recovered_note(by_machine, pd.concat(shown, ignore_index=True), goals)
         if measured:
             lines += [
                 "### Against the goals",
@@ -283,7 +301,7 @@ def render_performance(
                 *speed_lines(goals),
                 "",
             ]
-        lines += _history(by_machine, measured[-commits:]) if measured else ["No measured commits.", ""]
+        lines += _history(by_machine, measured, commits) if measured else ["No measured commits.", ""]
         if pair:
             lines += _comparison(by_machine, *pair, machine, factor)
         elif compare is not None:
@@ -296,7 +314,7 @@ def render_performance(
                 "One sample per benchmark, no warm-up: these show that the suite runs, not how fast.",
                 "",
             ]
-            lines += _history(by_machine, [c for c in order if c in quick][-commits:])
+            lines += _history(by_machine, [c for c in order if c in quick], commits)
     lines += _method(factor)
     out.mkdir(parents=True, exist_ok=True)
     return write_report(out / "performance.md", "\n".join(lines).rstrip("\n") + "\n")
