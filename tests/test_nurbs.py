@@ -320,10 +320,11 @@ def test_a_large_cloud_with_duplicates_grids_as_with_qhull():
 
 
 @pytest.mark.parametrize("n", [5000, 60_000])  # one piece; pieces on threads (over 100 000 triangles)
-@pytest.mark.parametrize("how", ["repeats", "out of range"])
+@pytest.mark.parametrize("how", ["repeats", "out of range", "not integers"])
 def test_a_vertex_order_that_is_no_permutation_is_an_error_not_a_crash(how, n):
     """The gridding indexes with Surface.vertex_order unchecked; one of the right shape that
-    repeats a vertex, or names one past the end, crashed fit_nurbs (segmentation fault)."""
+    repeats a vertex, names one past the end, or holds a NaN (which passed both range tests
+    and became -2**31 in the cast) crashed fit_nurbs (segmentation fault)."""
     import dataclasses
 
     from replication.surfaces import adt
@@ -334,9 +335,13 @@ def test_a_vertex_order_that_is_no_permutation_is_an_error_not_a_crash(how, n):
     if how == "repeats":
         order[1] = order[0]
         match = rf"permutation of 0..{n - 1}: it repeats a vertex"
-    else:
+    elif how == "out of range":
         order[0] = 10**9
         match = rf"permutation of 0..{n - 1}, got values 0..1000000000"
+    else:
+        order = order.astype(float)
+        order[0] = np.nan
+        match = rf"permutation of 0..{n - 1}, got dtype float64"
     bad = dataclasses.replace(surface, vertex_order=order)
     with pytest.raises(InputError, match=match):
         fit_nurbs(points, evaluator="fast", tessellation=None, triangulation=bad)

@@ -71,6 +71,8 @@ def relabel(points: np.ndarray, axes: np.ndarray, triangles: np.ndarray, order: 
     # the kernels index with ``order`` unchecked: it must number every point once (1 ms at 1e6)
     if order.shape != (n,):
         raise InputError(f"the vertex order must be a permutation of 0..{n - 1}, got shape {order.shape}")
+    if not np.issubdtype(order.dtype, np.integer):  # a NaN passes both range tests, and casts out of range
+        raise InputError(f"the vertex order must be a permutation of 0..{n - 1}, got dtype {order.dtype}")
     if n and (order.min() < 0 or order.max() >= n):
         raise InputError(
             f"the vertex order must be a permutation of 0..{n - 1}, got values {order.min()}..{order.max()}"
