@@ -512,19 +512,50 @@ def test_a_jet_that_partly_misses_the_surface_says_how_much(capsys, tmp_path):
     assert code == 0 and "0.5522 kg/s, 0.5522 kg/s on the surface" in out and err == ""
     code, out, err = run(capsys, "force", tmp_path / "bucket.csv", "--full-jet", "--center", "18", "0")
     assert code == 0 and "1.104 kg/s, 0.5522 kg/s on the surface" in out and err.count("\n") == 1
-    assert err.startswith("warning: 50 % of the jet's mass flow (0.5522 of 1.104 kg/s, 101 of 202 streamlets")
-    assert "the surface lies in y >= 0 only: the full jet's other half passes it by" in err
-    mirrored = pelton_bucket_cloud() * [1.0, -1.0, 1.0]
-    save_cloud(mirrored, tmp_path / "mirrored.csv")
+    assert err.startswith(
+        "warning: 50.0 % of the jet's mass flow (0.5522 of 1.104 kg/s, 101 of 202 streamlets"
+    )
+    assert (
+        "the surface lies in y >= 0 only, and half the jet (its part in y < 0) passes it by (without" in err
+    )
+    save_cloud(pelton_bucket_cloud() * [1.0, -1.0, 1.0], tmp_path / "mirrored.csv")
     code, out, err = run(capsys, "force", tmp_path / "mirrored.csv", "--full-jet", "--center", "18", "0")
-    assert code == 0 and "the surface lies in y <= 0 only" in err
+    assert code == 0 and "the surface lies in y <= 0 only, and half the jet (its part in y > 0)" in err
+    assert "takes a surface in y >= 0: mirror it" in err
+    # off the centre line, reaching across y = 0: the part in y < 0, and no advice to drop --full-jet
+    code, out, err = run(capsys, "force", tmp_path / "bucket.csv", "--full-jet", "--center", "18", "5")
+    assert code == 0 and err.rstrip().endswith("the part of the jet in y < 0 passes it by")
+    # missing off an edge the jet does not reach across y = 0: no word of y = 0
+    code, out, err = run(capsys, "force", tmp_path / "bucket.csv", "--full-jet", "--center", "36", "15")
+    assert code == 0 and err.rstrip().endswith("check --center and where the surface lies")
     code, out, err = run(capsys, "force", tmp_path / "bucket.csv", "--center", "30", "0")
     missed = json.loads(run(capsys, "force", tmp_path / "bucket.csv", "--center", "30", "0", "--json")[1])
     share = 1 - missed["mass_flow_hit_kg_s"] / missed["mass_flow_total_kg_s"]
-    assert 0 < share < 0.5 and err.startswith(f"warning: {100 * share:.2g} % of the jet's mass flow")
+    assert 0 < share < 0.5 and err.startswith(f"warning: {100 * share:.1f} % of the jet's mass flow")
     assert err.rstrip().endswith("check --center and where the surface lies") and err.count("\n") == 1
     code, _, err = run(capsys, "force", tmp_path / "bucket.csv", "--center", "30", "0", "--json")
     assert code == 0 and "misses the surface" in err  # on stderr whatever the output format
+
+
+def test_the_share_of_a_partly_missed_jet_never_rounds_to_none_or_all_of_it():
+    # was: "1e+02 %" for 201 of 202 streamlets missing (:.2g), "5e-05 %" for a sliver
+    from types import SimpleNamespace
+
+    from replication.casestudy import JetConfig
+    from replication.cli.jet_misses import partly_missed
+
+    points, triangles = np.array([[0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [0.0, 2.0, 0.0]]), np.array([[0, 1, 2]])
+    config = JetConfig(full_jet=True, center=(0.018, 0.05))
+    for hit, shown in ((1e-9, "> 99.9"), (0.004, "99.6"), (0.5, "50.0"), (0.9996, "< 0.1")):
+        result = SimpleNamespace(
+            mass_flow_total=1.0, mass_flow_hit=hit, n_streamlets=10_000, n_streamlets_hit=5
+        )
+        assert partly_missed(result, config, points, triangles).startswith(f"warning: {shown} % of the jet's")
+    for n_hit in (0, 10_000):  # none strikes (said otherwise) or all do: no warning
+        result = SimpleNamespace(
+            mass_flow_total=1.0, mass_flow_hit=0.5, n_streamlets=10_000, n_streamlets_hit=n_hit
+        )
+        assert partly_missed(result, config, points, triangles) is None
 
 
 def test_a_jet_coarser_than_the_surface_says_so_not_that_it_misses(capsys, tmp_path):

@@ -343,10 +343,26 @@ def test_an_sph_run_says_before_it_starts_that_part_of_the_jet_will_miss(
     (before,) = said
     if full_jet:
         assert before.startswith(
-            "warning: 50 % of the jet's mass flow (0.5522 of 1.104 kg/s, 101 of 202 of the thin-sheet "
+            "warning: 50.0 % of the jet's mass flow (0.5522 of 1.104 kg/s, 101 of 202 of the thin-sheet "
             "model's streamlets) misses the surface, and the simulated force will be that of the rest; "
             "the surface lies in y >= 0 only"
         )
         assert before.count("warning") == 1
     else:
         assert "warning" not in before and "misses" not in before
+
+
+def test_the_check_before_a_simulation_is_advice_and_never_stops_it(monkeypatch):
+    """Whatever the thin-sheet model makes of a surface (its safety net refuses a non-finite
+    force), the SPH simulation still runs: the check says nothing rather than fail."""
+    import replication.casestudy as casestudy
+    from replication.casestudy import JetConfig
+    from replication.cli.jet_misses import sph_coverage_warning
+    from replication.errors import DegenerateInputError
+
+    def refused(*args, **kwargs):
+        raise DegenerateInputError("the jet force is not finite")
+
+    points, triangles = pelton_bucket_cloud()[:3], np.array([[0, 1, 2]])
+    monkeypatch.setattr(casestudy, "jet_force", refused)
+    assert sph_coverage_warning(points, triangles, JetConfig()) is None

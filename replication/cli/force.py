@@ -116,7 +116,7 @@ def _cmd_force(args: argparse.Namespace) -> int:
             "so the force is 0 N (check --center and where the surface lies)",
             file=sys.stderr,
         )
-    partly_missed = jet_misses.partly_missed(result, config, points)
+    partly_missed = jet_misses.partly_missed(result, config, points, triangles)
     if partly_missed:
         print(partly_missed, file=sys.stderr)
     report: dict[str, Any] = {
