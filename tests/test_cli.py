@@ -93,6 +93,21 @@ def test_duplicates_reported_not_warned_twice(capsys, tmp_path):
     assert code == 0 and "merged 1 point(s) sharing a projected position (policy mean)" in out and err == ""
     code, out, _ = run(capsys, "nurbs", str(tmp_path / "d.csv"), "--depth", "z", "--net", "3x3", "--json")
     assert json.loads(out)["points_merged"] == 1
+    # compare merged them without a word, and duplicate rows change the net it reports
+    from replication.surfaces import random_cloud
+
+    cloud = random_cloud(60, rng=5)
+    save_cloud(np.vstack([cloud, cloud[:5]]), tmp_path / "dup.csv")
+    code, out, err = run(capsys, "compare", str(tmp_path / "dup.csv"))
+    assert code == 0 and err == ""
+    assert (
+        "merged 5 point(s) sharing a projected position (policy mean); the NURBS net is sized by all 65"
+        in out
+    )
+    assert json.loads(run(capsys, "compare", str(tmp_path / "dup.csv"), "--json")[1])["points_merged"] == 5
+    save_cloud(cloud, tmp_path / "c.csv")
+    code, out, err = run(capsys, "compare", str(tmp_path / "c.csv"))
+    assert code == 0 and "merged" not in out
 
 
 @pytest.mark.parametrize(

@@ -94,6 +94,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     report: dict[str, Any] = {
         "input": source,
         "points": int(cloud.shape[0]),
+        "points_merged": result.adt.n_merged,
         "depth_axis": result.adt.depth_axis_name,
         "depth_range": result.depth_range,
         "adt": {"vertices": result.adt.n_vertices, "triangles": result.adt.n_triangles},
@@ -110,6 +111,11 @@ def cmd_compare(args: argparse.Namespace) -> int:
         f"ADT vs NURBS for {source}: depth axis {report['depth_axis']}, "
         f"depth range {result.depth_range:.4g}; NURBS degree {args.degree}, {m_u} x {m_v} net"
     )
+    if result.adt.n_merged:  # the net counts every point (Table 1's rule), merged or not: say so
+        print(
+            f"merged {result.adt.n_merged} point(s) sharing a projected position (policy {args.duplicates}); "
+            f"the NURBS net is sized by all {cloud.shape[0]} points of the cloud"
+        )
     for name in result.pairings:
         print("\n".join(_format_stats(name, result.pairings[name], result.statistics[name])))
     if "cloud_file" in meta:

@@ -23,7 +23,9 @@ in every report):
   (3) of the cloud's aspect ratio (extent along u over extent along v), the pair whose ratio
   is closest to the aspect ratio (in log scale). When no pair qualifies (primes, skinny
   factorisations) the **fallback** net is ``m_u = round(sqrt(n * aspect))``,
-  ``m_v = ceil(n / m_u)`` (each at least ``degree + 1``), which has at least n nodes.
+  ``m_v = ceil(n / m_u)`` (each at least ``degree + 1``), which has at least n nodes. n
+  counts every point of the cloud, points merged as duplicates included (Table 1 counts the
+  points drawn, and its lattice clouds repeat positions): a duplicated row changes the net.
 * **Grid.** The grid spans the bounding box of the projected cloud with uniformly spaced
   nodes. Node depths are the linear interpolation of the cloud, i.e. barycentric
   interpolation on its Delaunay triangulation (the ADT surface, with the same duplicate
