@@ -23,7 +23,32 @@ def test_force_does_not_suggest_an_option_it_lacks(capsys, tmp_path, rows, match
     assert code == 1 and one_line(err, "force") and match in err, err
     assert "--depth" not in err and "surface z(x, y) over an area" in err
     code, _, err = run(capsys, "adt", tmp_path / "c.csv")
-    assert code == 1 and one_line(err, "adt") and "another --depth rule may help" in err, err
+    assert code == 1 and one_line(err, "adt") and "--depth" not in err, (
+        err
+    )  # on one line in 3-D: no rule helps
+    assert "the points lie on one line in 3-D (or coincide), so no depth rule can help" in err
+
+
+@pytest.mark.parametrize(
+    ("rows", "argv", "helps"),
+    [
+        ("0,0,0\n1,0,0\n0,2,0\n1,2,0\n", ["--depth", "max"], True),  # a flat plate seen edge-on
+        ("0,0,0\n1,0,0\n0,2,0\n1,2,0\n", ["--depth", "z"], None),  # its own plane: triangulated
+        ("0,0,0\n1,2,3\n2,4,6\n", ["--depth", "x"], False),  # one line: no projection helps
+        ("5,5,5\n5,5,5\n5,5,5\n", [], False),  # one point three times
+    ],
+)
+def test_adt_suggests_another_depth_rule_only_where_one_helps(capsys, tmp_path, rows, argv, helps):
+    # was: "another --depth rule may help" for `adt --random 2` and for three coincident points
+    (tmp_path / "c.csv").write_text("x,y,z\n" + rows)
+    code, _, err = run(capsys, "adt", tmp_path / "c.csv", *argv)
+    if helps is None:
+        assert code == 0
+        return
+    assert code == 1 and one_line(err, "adt")
+    assert ("another --depth rule may help" in err) is helps and (
+        "no depth rule can help" in err
+    ) is not helps
 
 
 @pytest.mark.parametrize(("scale", "word"), [(1e300, "overflows"), (1e-300, "underflows")])

@@ -44,10 +44,14 @@ def check_domain(
     tol = 1e-9 * span
     if not config.full_jet and lo[1] < -tol:
         i = int(points[:, 1].argmin())
+        advice = (
+            "the surface lies wholly in y <= 0: mirror it (y -> -y), or use the full jet"
+            if hi[1] <= tol
+            else "use the full jet for a surface on both sides"
+        )
         raise InputError(
             f"the half jet needs the surface on the side y >= 0 of its symmetry plane, but vertex "
-            f"{_vertex(index, i)} has y = {to_millimetres(points[i, 1]):.6g} mm; use the full jet for a "
-            "surface on both sides"
+            f"{_vertex(index, i)} has y = {to_millimetres(points[i, 1]):.6g} mm; {advice}"
         )
     if config.domain is None:
         return

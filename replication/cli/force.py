@@ -51,7 +51,7 @@ def _load(path: str) -> tuple[Any, Any, str, int]:
     from replication.errors import CloudFileError, DegenerateInputError
     from replication.io import CLOUD_SUFFIXES, SURFACE_FORMATS, load_cloud, read_surface
     from replication.surfaces import adt
-    from replication.surfaces.adt import DEPTH_HINT
+    from replication.surfaces.adt import DEPTH_HINT, LINE_HINT
 
     suffix = Path(path).suffix.lower()
     if suffix.lstrip(".") in SURFACE_FORMATS:
@@ -64,7 +64,8 @@ def _load(path: str) -> tuple[Any, Any, str, int]:
     try:
         surface = adt(cloud, depth="z")
     except DegenerateInputError as exc:  # the depth is the jet's axis z here: no --depth to try
-        why = str(exc).replace(DEPTH_HINT, "; the jet model needs a surface z(x, y) over an area of x-y")
+        jet = "; the jet model needs a surface z(x, y) over an area of x-y"
+        why = str(exc).replace(DEPTH_HINT, jet).replace(LINE_HINT, jet)
         raise DegenerateInputError(why) from exc
     what = f"{cloud.shape[0]} points -> ADT surface of {surface.n_triangles} triangles"
     return surface.points, surface.triangles, what, surface.n_merged

@@ -425,6 +425,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--readme",
         type=file_name,
         metavar="FILE",
-        help="also refresh the headline block of this README from the data",
+        help="also refresh the headline block of this README from the data (the README.md of a "
+        "checkout whose reports/ is drawn is refreshed without it)",
     )
     p.set_defaults(func=_cmd_report)

@@ -59,6 +59,8 @@ __all__ = [
 #: The advice an ADT of too few distinct projected points ends with (a caller that fixes the
 #: depth axis, such as the jet model's ``force``, replaces it with its own).
 DEPTH_HINT = "; another --depth rule may help"
+#: ... and when no rule can: the cloud lies on one line in 3-D, so every projection does too.
+LINE_HINT = "; the points lie on one line in 3-D (or coincide), so no depth rule can help"
 
 AXES: tuple[str, str, str] = ("x", "y", "z")
 DEPTH_RULES: tuple[str, ...] = ("min", "max", "x", "y", "z")
@@ -304,9 +306,12 @@ def adt(
         why = underflow(cloud[:, [u_axis, v_axis]], (AXES[u_axis], AXES[v_axis]))  # not collinear: tiny
         if why is not None:
             raise DegenerateInputError(why) from exc
+        # points off one line in 3-D span a plane, and projecting along an axis that plane is
+        # not parallel to keeps them off one line: then another depth axis triangulates them
+        hint = DEPTH_HINT if np.linalg.matrix_rank(cloud - cloud[0]) >= 2 else LINE_HINT
         raise DegenerateInputError(
             f"{exc} (projection plane ({AXES[u_axis]}, {AXES[v_axis]}), depth axis "
-            f"{AXES[axis]}, rule {depth!r}{DEPTH_HINT})"
+            f"{AXES[axis]}, rule {depth!r}{hint})"
         ) from exc
     n = cloud.shape[0]
     if planar.duplicates.size == 0:  # every point is a vertex, in input order
