@@ -366,3 +366,15 @@ def test_the_check_before_a_simulation_is_advice_and_never_stops_it(monkeypatch)
     points, triangles = pelton_bucket_cloud()[:3], np.array([[0, 1, 2]])
     monkeypatch.setattr(casestudy, "jet_force", refused)
     assert sph_coverage_warning(points, triangles, JetConfig()) is None
+
+
+def test_a_fine_resolution_shows_its_progress(capsys, bucket_csv, monkeypatch):
+    # was: 21-25 s of silence at --resolution 256
+    import replication.cli.force as force
+
+    code, out, err = run(capsys, "force", str(bucket_csv), "--resolution", "16")
+    assert code == 0 and err == ""  # milliseconds of work: no display
+    monkeypatch.setattr(force, "PROGRESS_FROM", 16)
+    code, out, err = run(capsys, "force", str(bucket_csv), "--resolution", "16")
+    streamlets = int(out.split(" streamlets, ")[0].rsplit(" ", 1)[1])
+    assert code == 0 and f"jet streamlets traced (resolution 16): {streamlets}/{streamlets} done" in err

@@ -371,3 +371,25 @@ def test_domain_errors_name_the_mesh_vertex_and_ignore_unused_ones():
     below = [[1, 1, 1], [10, 1, 1], [1, 10, 1], [5, -3, 1]]
     with pytest.raises(InputError, match=r"vertex 3 has y = -3 mm"):
         jet_force(below, [[0, 1, 2], [0, 3, 1]])
+
+
+@pytest.mark.parametrize("resolution", [8, 32])
+def test_the_pieces_of_a_fine_jet_change_nothing_and_report_their_streamlets(monkeypatch, resolution):
+    """At fine resolutions the streamlets are traced in more pieces, so that a Ctrl-C is taken
+    between pieces (a resolution-256 force ignored it for 12 s) and progress hears of each;
+    the force is the same bit for bit as in two pieces, with or without a progress callback."""
+    from replication.casestudy import jet
+    from replication.casestudy.shapes import pelton_bucket_surface
+
+    surface = pelton_bucket_surface()
+    args = (surface.points, surface.triangles, JetConfig(full_jet=True, domain=None))
+    pieces = jet.PIECES * max(1, resolution // (jet.PIECES * jet.RINGS_PER_PIECE))
+    heard = []
+    fine = jet_force(*args, resolution=resolution, progress=heard.append)
+    plain = jet_force(*args, resolution=resolution)
+    monkeypatch.setattr(jet, "RINGS_PER_PIECE", 10**6)  # two pieces, as at the default resolution
+    two = jet_force(*args, resolution=resolution)
+    for other in (plain, two):
+        assert fine.force.tolist() == other.force.tolist() and fine.n_parcels == other.n_parcels
+    assert len(heard) == pieces == (2 if resolution == 8 else 8)
+    assert heard == sorted(heard) and heard[-1] == fine.n_streamlets and len(set(heard)) == pieces

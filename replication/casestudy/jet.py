@@ -54,6 +54,8 @@ from __future__ import annotations
 
 import functools
 import math
+import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -97,6 +99,10 @@ MAX_STEPS_PER_TRIANGLE = 8
 #: summed on its own and the streamlets are added in order, so the result does not depend
 #: on the pieces or the threads.
 PIECES = 2
+#: Above the default resolutions the work grows as the resolution's cube (seconds at 128,
+#: tens of seconds at 256): it is cut into ``PIECES`` pieces per this many rings, so that a
+#: Ctrl-C is taken between pieces of well under a second and ``progress`` hears of each.
+RINGS_PER_PIECE = 4
 
 
 @dataclass(frozen=True, eq=False)
@@ -238,6 +244,7 @@ def _trace(
     resolution: int,
     neighbors: np.ndarray | None = None,
     losses: SheetLosses | None = None,
+    progress: Callable[[int], None] | None = None,
 ) -> JetForce:
     """Run the compiled model on a validated mesh (metres, CCW triangles; their neighbours,
     if known, e.g. an ADT surface's own adjacency)."""
@@ -254,7 +261,10 @@ def _trace(
     rows = np.zeros((sx.size, codes.ROW_SIZE))
     trace = kernel("sheet_trace")
     common = (mesh, half, bool(convex), *jet, MIN_SPLIT_FRACTION, max_steps, loss)
-    pieces = [functools.partial(trace, *common, j, PIECES, rows) for j in range(PIECES)]
+    count = PIECES * max(1, resolution // (PIECES * RINGS_PER_PIECE))
+    pieces = [functools.partial(trace, *common, j, count, rows) for j in range(count)]
+    if progress is not None:
+        pieces = _reporting(pieces, [len(range(j, sx.size, count)) for j in range(count)], progress)
     run(pieces)  # side by side: numba's kernel and the ahead-of-time one both release the GIL
     # the streamlets' rows added in order: the same sums whatever ran the pieces
     total = rows.sum(axis=0)
@@ -296,6 +306,23 @@ def _trace(
     )
 
 
+def _reporting(
+    pieces: list[Callable[[], Any]], sizes: list[int], progress: Callable[[int], None]
+) -> list[Callable[[], Any]]:
+    """The pieces, each telling ``progress`` the streamlets traced so far once it has run (one
+    call at a time, whichever thread ran the piece)."""
+    lock = threading.Lock()
+    done = [0]
+
+    def piece(k: int) -> None:
+        pieces[k]()
+        with lock:
+            done[0] += sizes[k]
+            progress(done[0])
+
+    return [functools.partial(piece, k) for k in range(len(pieces))]
+
+
 def jet_force(
     points: ArrayLike,
     triangles: ArrayLike,
@@ -303,6 +330,7 @@ def jet_force(
     *,
     resolution: int = DEFAULT_RESOLUTION,
     losses: SheetLosses | None = None,
+    progress: Callable[[int], None] | None = None,
 ) -> JetForce:
     """Force of the water jet on a triangulated height-field surface.
 
@@ -322,6 +350,11 @@ def jet_force(
     losses : SheetLosses, optional
         Speed lost at creases and re-impacts (the surrogate of issue 11); default none: the
         thin-sheet model exactly.
+    progress : callable, optional
+        Called with the number of streamlets traced so far (of ``JetForce.n_streamlets``)
+        as each piece of them finishes, one call at a time, from the thread that traced it.
+        The pieces are finer at fine resolutions (``RINGS_PER_PIECE``); the force does not
+        depend on them.
 
     Returns
     -------
@@ -365,7 +398,7 @@ def jet_force(
     check_domain(pts, config, np.unique(tri))
     pts, tri = weld(pts, tri)
     tri, convex = check_height_field(pts, tri)
-    return _trace(pts, tri, convex, config, resolution, losses=losses)
+    return _trace(pts, tri, convex, config, resolution, losses=losses, progress=progress)
 
 
 def surface_force(

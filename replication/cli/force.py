@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -108,8 +110,8 @@ def _cmd_force(args: argparse.Namespace) -> int:
     jet_force([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], JetConfig(domain=None), resolution=1)
     with relay_warnings() as caught:  # the streamlets may be too coarse for the surface: the library says so
         start = time.perf_counter()
-        with about_the_input(args):
-            result = jet_force(points, triangles, config, resolution=args.resolution)
+        with about_the_input(args), _traced(args.resolution, config) as progress:
+            result = jet_force(points, triangles, config, resolution=args.resolution, progress=progress)
         seconds = time.perf_counter() - start
     if result.n_streamlets_hit == 0 and not any(issubclass(w.category, JetResolutionWarning) for w in caught):
         print(
@@ -147,6 +149,24 @@ def _cmd_force(args: argparse.Namespace) -> int:
     if merged:
         print(f"merged {merged} point(s) sharing an (x, y) position (mean height)")
     return 0
+
+
+#: From this resolution on (seconds of work: the work grows as its cube) progress is shown.
+PROGRESS_FROM = 128
+
+
+@contextlib.contextmanager
+def _traced(resolution: int, config: Any) -> Iterator[Callable[[int], None] | None]:
+    """A progress display of the streamlets traced at a fine resolution; None below it."""
+    if resolution < PROGRESS_FROM:
+        yield None
+        return
+    from replication.casestudy.jet import jet_streamlets
+    from replication.cli.progress import progress
+
+    total = int(jet_streamlets(config, resolution)[0].shape[0])
+    with progress(total, f"jet streamlets traced (resolution {resolution})") as bar:
+        yield lambda done: bar.update(done - bar.done)
 
 
 def shared_report(
@@ -233,7 +253,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="N",
         help=(
             f"streamlet rings across the jet radius, 4N spreading directions (default {DEFAULT_RESOLUTION}, "
-            f"at most {MAX_RESOLUTION}: the work grows as N^3)"
+            f"at most {MAX_RESOLUTION}: the work grows as N^3; from {PROGRESS_FROM} on, progress is shown)"
         ),
     )
     p.add_argument(
