@@ -170,7 +170,7 @@ def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
     """
     if isinstance(points, np.ma.MaskedArray) and np.ma.is_masked(points):
         raise InputError(
-            f"{name} has {int(np.ma.count_masked(points))} masked value(s): numpy would use the values "
+            f"{name}: {int(np.ma.count_masked(points))} masked value(s): numpy would use the values "
             "hidden under the mask; drop those points or fill them first"
         )
     try:
@@ -193,7 +193,7 @@ def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
     bad = np.flatnonzero(~np.isfinite(arr).all(axis=1))
     if bad.size:
         raise InputError(
-            f"{name} has NaN or infinite coordinates in {bad.size} row(s), counted from 0: {shown(bad)}"
+            f"{name}: NaN or infinite coordinates in {bad.size} row(s), counted from 0: {shown(bad)}"
         )
     return arr
 
