@@ -464,3 +464,32 @@ def test_the_files_the_help_examples_name_can_be_made_as_the_help_says(tmp_path,
     assert main(["force", "my_mesh.vtp", "--json"]) == 0
     assert main(["adt", "sphere.xyz", "--split", "z=0", "-o", "closed.vtk"]) == 0
     assert "closed (watertight)" in capsys.readouterr().out
+
+
+def test_large_clouds_say_when_their_long_steps_start_and_end(capsys, tmp_path, monkeypatch):
+    # was: 19 s of silence for `nurbs --random 1000000 -o big.json`, 7 s for a 2e6-point adt -o
+    import replication.cli.surfaces as surfaces
+
+    out_vtk, out_json = tmp_path / "s.vtk", tmp_path / "n.json"
+    code, _, err = run(capsys, "adt", "--random", "60", "-o", str(out_vtk))
+    assert code == 0 and err == ""  # a small cloud: nothing to wait for
+    monkeypatch.setattr(surfaces, "LARGE_CLOUD", 50)
+    code, _, err = run(capsys, "adt", "--random", "60", "-o", str(tmp_path / "t.vtk"), "--save-cloud",
+                       str(tmp_path / "t.csv"))  # fmt: skip
+    lines = err.splitlines()
+    assert code == 0 and lines[0] == "building the ADT surface of 60 points ..."
+    assert lines[1].startswith("building the ADT surface of 60 points: done (") and lines[1].endswith(" s)")
+    assert lines[2] == f"writing {tmp_path / 't.vtk'} and {tmp_path / 't.csv'} ..." and len(lines) == 4
+    code, _, err = run(capsys, "nurbs", "--random", "60", "-o", str(out_json), "--json")
+    assert (
+        code == 0
+        and err.splitlines()[0] == "fitting the NURBS surface to 60 points (geomdl tessellation) ..."
+    )
+    assert err.splitlines()[2] == f"writing {out_json} ..." and len(err.splitlines()) == 4
+    code, _, err = run(capsys, "nurbs", "--random", "60")  # nothing written: no writing step
+    assert code == 0 and "writing" not in err and err.count("\n") == 2
+    monkeypatch.setattr(surfaces, "LARGE_CLOUD", 1)
+    code, _, err = run(capsys, "adt", "--random", "2")  # a failed step: its error, no "done"
+    assert (
+        code == 1 and "done" not in err and err.splitlines()[0] == "building the ADT surface of 2 points ..."
+    )

@@ -8,12 +8,13 @@ instead: one at every tenth of the work and one when it finishes, with the elaps
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import time
 from collections.abc import Iterable, Iterator
 from typing import Any, TextIO
 
-__all__ = ["Progress", "progress", "progress_bar"]
+__all__ = ["Progress", "progress", "progress_bar", "stage"]
 
 #: Plain-line mode reports at every this fraction of the work (and at the end).
 LINE_STEP = 0.1
@@ -119,3 +120,17 @@ def progress_bar(items: Iterable[Any], description: str, total: int) -> Iterator
         for item in items:
             yield item
             bar.update(1)
+
+
+@contextlib.contextmanager
+def stage(description: str, *, shown: bool = True) -> Iterator[None]:
+    """One long step of work that reports no progress of its own (a library call on a large
+    cloud, a large file written): a line on stderr as it starts and one with its time when it
+    ends (none when it fails: the error says why). ``shown=False`` prints nothing."""
+    if not shown:
+        yield
+        return
+    print(f"{description} ...", file=sys.stderr, flush=True)
+    start = time.perf_counter()
+    yield
+    print(f"{description}: done ({time.perf_counter() - start:.1f} s)", file=sys.stderr, flush=True)
