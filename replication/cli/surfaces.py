@@ -80,8 +80,13 @@ def _check_format_has_output(args: argparse.Namespace) -> None:
 LARGE_CLOUD = 250_000
 
 
-def _writing(args: argparse.Namespace) -> str:
-    return "writing " + " and ".join(str(p) for p in (args.output, args.save_cloud) if p)
+def _write_outputs(args: argparse.Namespace, write: Any, cloud: Any, meta: Any, *, large: bool) -> Any:
+    """Write ``-o`` (``write``) and ``--save-cloud`` all or none, saying so for a large cloud."""
+    names = [str(p) for p in (args.output, args.save_cloud) if p]
+    with stage("writing " + " and ".join(names), shown=large and bool(names)):
+        return write_all_or_none(
+            (args.output, write), (args.save_cloud, lambda: save_generated_cloud(cloud, args, meta))
+        )
 
 
 def _cmd_adt(args: argparse.Namespace) -> int:
@@ -141,11 +146,7 @@ def _cmd_adt(args: argparse.Namespace) -> int:
                 "points_merged": surface.n_merged,
             }
         build_s = time.perf_counter() - start
-    with stage(_writing(args), shown=large and bool(args.output or args.save_cloud)):
-        written, _ = write_all_or_none(
-            (args.output, lambda: write_surface(mesh, args.output, fmt)),
-            (args.save_cloud, lambda: save_generated_cloud(cloud, args, meta)),
-        )
+    written, _ = _write_outputs(args, lambda: write_surface(mesh, args.output, fmt), cloud, meta, large=large)
     report: dict[str, Any] = {
         "input": source,
         "points": int(cloud.shape[0]),
@@ -222,11 +223,9 @@ def _cmd_nurbs(args: argparse.Namespace) -> int:
                 **frame_kwargs(args),
             )
         build_s = time.perf_counter() - start
-    with stage(_writing(args), shown=large and bool(args.output or args.save_cloud)):
-        written, _ = write_all_or_none(
-            (args.output, lambda: write_nurbs(nurbs.patch, args.output, fmt)),
-            (args.save_cloud, lambda: save_generated_cloud(cloud, args, meta)),
-        )
+    written, _ = _write_outputs(
+        args, lambda: write_nurbs(nurbs.patch, args.output, fmt), cloud, meta, large=large
+    )
     m_u, m_v = nurbs.patch.net_shape
     report: dict[str, Any] = {
         "input": source,

@@ -75,10 +75,10 @@ def _shown(frame: pd.DataFrame, order: list[str], count: int) -> pd.DataFrame:
     return pd.concat(kept) if kept else frame
 
 
-def _history(frame: pd.DataFrame, order: list[str], count: int) -> list[str]:
-    """One table per benchmark: its ``count`` most recent measured commits of ``order``."""
+def _history(shown: pd.DataFrame, order: list[str]) -> list[str]:
+    """One table per benchmark of the rows ``shown`` (:func:`_shown`), its commits in ``order``."""
     lines: list[str] = []
-    for name, bench in _shown(frame, order, count).groupby("benchmark", sort=True):
+    for name, bench in shown.groupby("benchmark", sort=True):
         by_commit = {c: g for c, g in bench.groupby("commit")}
         heads, columns = [], [c for c in order if c in by_commit]
         for c in columns:
@@ -91,9 +91,7 @@ def _history(frame: pd.DataFrame, order: list[str], count: int) -> list[str]:
     return lines
 
 
-def _recovered_note(
-    frame: pd.DataFrame, shown: pd.DataFrame, goals: list[tuple[Goal, pd.Series | None]]
-) -> list[str]:
+def _recovered_note(shown: pd.DataFrame, goals: list[tuple[Goal, pd.Series | None]]) -> list[str]:
     """Which of the values shown (the history's and comparison's rows ``shown``, the goals
     table's readings ``goals``) were recovered from an earlier page rather than read from asv."""
     rows = [shown]
@@ -286,11 +284,9 @@ def render_performance(
         lines += [f"## Machine `{machine}`", ""]
         pair = _pick(measured, compare)
         goals = goal_rows(by_machine, measured)
-        shown = [
-            _shown(by_machine, measured, commits),
-            _latest(by_machine[by_machine["commit"].isin(pair or ())]),
-        ]
-        lines += _recovered_note(by_machine, pd.concat(shown, ignore_index=True), goals)
+        history = _shown(by_machine, measured, commits)
+        compared = _latest(by_machine[by_machine["commit"].isin(pair or ())])
+        lines += _recovered_note(pd.concat([history, compared], ignore_index=True), goals)
         if measured:
             lines += [
                 "### Against the goals",
@@ -301,7 +297,7 @@ def render_performance(
                 *speed_lines(goals),
                 "",
             ]
-        lines += _history(by_machine, measured, commits) if measured else ["No measured commits.", ""]
+        lines += _history(history, measured) if measured else ["No measured commits.", ""]
         if pair:
             lines += _comparison(by_machine, *pair, machine, factor)
         elif compare is not None:
@@ -314,7 +310,8 @@ def render_performance(
                 "One sample per benchmark, no warm-up: these show that the suite runs, not how fast.",
                 "",
             ]
-            lines += _history(by_machine, [c for c in order if c in quick], commits)
+            quick_order = [c for c in order if c in quick]
+            lines += _history(_shown(by_machine, quick_order, commits), quick_order)
     lines += _method(factor)
     out.mkdir(parents=True, exist_ok=True)
     return write_report(out / "performance.md", "\n".join(lines).rstrip("\n") + "\n")
