@@ -285,9 +285,18 @@ def test_an_earlier_simulations_run_directory_is_reused(capsys, bucket_csv, tmp_
         (["--center", "18", "nan", "--full-jet"], "argument --center: expected a finite number, got 'nan'"),
         (
             ["--diameter", "1e-300"],
-            "argument --diameter: expected a diameter from 1e-57 to 1e+63 mm, got '1e-300'",
+            "argument --diameter: expected a diameter of at least 1e-57 mm (the range the force model "
+            "computes in), got '1e-300'",
         ),
-        (["--diameter", "0"], "argument --diameter: expected a diameter from 1e-57 to 1e+63 mm, got '0'"),
+        (
+            ["--diameter", "1e300"],
+            "argument --diameter: expected a diameter of at most 1e+63 mm (the range the force model "
+            "computes in), got '1e300'",
+        ),
+        # was: "expected a diameter from 1e-57 to 1e+63 mm", a range that says nothing about a zero
+        (["--diameter", "0"], "argument --diameter: expected a finite positive diameter in mm, got '0'"),
+        (["--diameter", "-18"], "argument --diameter: expected a finite positive diameter in mm, got '-18'"),
+        (["--diameter", "inf"], "argument --diameter: expected a finite positive diameter in mm, got 'inf'"),
         (["--velocity", "-4"], "argument --velocity: expected a finite positive number, got '-4'"),
         (["--density", "inf"], "argument --density: expected a finite positive number, got 'inf'"),
         (["--domain", "36", "0", "13"], "argument --domain: expected a finite positive number, got '0'"),

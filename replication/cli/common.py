@@ -25,12 +25,12 @@ __all__ = [
     "file_name",
     "finite_float",
     "finite_positive",
-    "float_between",
     "frame_kwargs",
     "int_between",
     "load_or_generate",
     "pair",
     "positive_int",
+    "positive_within",
     "probability",
     "relay_warnings",
     "seed",
@@ -116,13 +116,21 @@ def finite_float(text: str) -> float:
     return value
 
 
-def float_between(low: float, high: float, what: str):
-    """An argparse type accepting finite numbers in ``[low, high]``; ``what`` names them in errors."""
+def positive_within(low: float, high: float, noun: str, unit: str, why: str):
+    """An argparse type for a positive size the code can only hold in ``[low, high]``.
+
+    The error for zero or a negative size says that it must be positive; only a positive size
+    outside the bounds hears the bound it crossed and ``why`` there is one (quoting the range
+    for ``0`` sent users to a bound such as 1e-57 that had nothing to do with their mistake).
+    """
 
     def parse(text: str) -> float:
-        value = _float(text, what)
-        if not (np.isfinite(value) and low <= value <= high):
-            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
+        value = _float(text, f"a finite positive {noun} in {unit}")
+        if not (np.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(f"expected a finite positive {noun} in {unit}, got {text!r}")
+        if not low <= value <= high:
+            bound = f"at least {low:g}" if value < low else f"at most {high:g}"
+            raise argparse.ArgumentTypeError(f"expected a {noun} of {bound} {unit} ({why}), got {text!r}")
         return value
 
     return parse

@@ -16,8 +16,8 @@ from replication.cli.common import (
     emit_json,
     finite_float,
     finite_positive,
-    float_between,
     int_between,
+    positive_within,
     relay_warnings,
 )
 
@@ -232,7 +232,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--diameter",
-        type=float_between(low, high, f"a diameter from {low:g} to {high:g} mm"),
+        type=positive_within(low, high, "diameter", "mm", "the range the force model computes in"),
         default=18.0,
         metavar="D",
         help="jet diameter in mm (default 18)",
