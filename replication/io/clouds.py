@@ -19,7 +19,9 @@ and a guess either way would make the same cloud give other numbers as ``.csv`` 
 header ``x,y,z``, and their ``.txt``/``.xyz`` start with the comment ``# x y z``.
 Numbers may be written with Fortran's exponent letter ``D`` (``1.0D+00``, as Fortran's
 double-precision output has it): they read as ``1.0E+00`` (a first line of them was taken for
-a header, and the error blamed line 2).
+a header, and the error blamed line 2). Comma-separated rows may end in a comma (``1,2,3,``)
+when the first does: it closes the row and opens no fourth column. ``.npy`` files are read by
+:mod:`replication.io.npyclouds` (structured arrays with named fields included).
 Every problem is reported as a :class:`~replication.errors.CloudFileError` naming the file
 and, where it applies, the line.
 """
@@ -38,6 +40,8 @@ import numpy as np
 
 from replication.errors import CloudFileError, CloudFileWarning, InputError, shortened, shown
 from replication.io.atomic import atomic_path, atomic_write_text
+from replication.io.axisnames import axis_name, axis_order, quoted_names
+from replication.io.npyclouds import load_npy
 from replication.io.paths import dangling, lookup
 from replication.io.vtk import shortest_decimals
 from replication.surfaces.cloud import as_cloud
@@ -145,9 +149,9 @@ def _comment_header(path: Path, lines: list[str], first_data: int) -> tuple[list
     if not above.startswith("#"):  # (blank lines between it and the data do not matter)
         return None
     tokens = _header_tokens(above[1:])
-    if len(tokens) != 3 or sorted(_axis_name(t) for t in tokens) != ["x", "y", "z"]:
+    if len(tokens) != 3 or sorted(axis_name(t) for t in tokens) != ["x", "y", "z"]:
         return None
-    return tokens, _header_order(path, tokens) or [0, 1, 2]
+    return tokens, axis_order(path, tokens) or [0, 1, 2]
 
 
 def _header_tokens(text: str) -> list[str]:
@@ -171,11 +175,6 @@ def _header_tokens(text: str) -> list[str]:
     if ";" in bare:
         return [name.strip() for name in bare.split(";")]
     return bare.split()
-
-
-def _names(tokens: list[str]) -> str:
-    """Header names for a message, a name holding a comma in quotes (``"z, mm", "x, mm"``)."""
-    return ", ".join(f'"{t.strip()}"' if "," in t else t.strip() for t in tokens)
 
 
 #: A unit in brackets or parentheses after a name, with the white space before it.
@@ -217,14 +216,14 @@ def _load_text(path: Path) -> np.ndarray:
         counted = _header_count(numbered_header)
         if counted is not None and counted != 3:  # "x,y,z,i" over three columns: which three?
             raise CloudFileError(
-                f"{path}: the header {_names(first_tokens)} names {counted} columns, but a point cloud "
+                f"{path}: the header {quoted_names(first_tokens)} names {counted} columns, but a point cloud "
                 "has 3 (x, y, z): name the file's three columns, or give no header"
             )
-        named = _header_order(path, first_tokens) or [0, 1, 2]
-        labels = not any(_axis_name(t) in ("x", "y", "z") for t in first_tokens)
+        named = axis_order(path, first_tokens) or [0, 1, 2]
+        labels = not any(axis_name(t) in ("x", "y", "z") for t in first_tokens)
         if labels and commented is None:  # ("py,px,pz" or "lat,lon,alt": which axis is which is a guess)
             warnings.warn(
-                f"{path}: the header {_names(first_tokens)} names none of the axes x, y and z, so its "
+                f"{path}: the header {quoted_names(first_tokens)} names none of the axes x, y and z, so its "
                 "columns were read in file order as x, y and z; name them x, y and z (in any order) "
                 "to say otherwise",
                 CloudFileWarning,
@@ -233,8 +232,9 @@ def _load_text(path: Path) -> np.ndarray:
         if commented is None or not labels:  # a label header (east,north,height) leaves the comment's order
             if commented is not None and named != order:
                 raise CloudFileError(
-                    f"{path}: the comment {_names(header)} and the header {_names(first_tokens)} name "
-                    "the columns in different orders: keep the one that is right"
+                    f"{path}: the comment {quoted_names(header)} and the header "
+                    f"{quoted_names(first_tokens)} name the columns in different orders: keep the one that "
+                    "is right"
                 )
             header, order = first_tokens, named
     elif first_tokens == ["0", "1", "2"] and "#" not in "".join(lines[: numbered[0][0]]):
@@ -242,6 +242,10 @@ def _load_text(path: Path) -> np.ndarray:
         # first point" says the line is a point
         raise _column_number_header(path, numbered[0][0], numbered[0][1])
     comma = "," in numbered[0][1]
+    if comma and numbered[0][1].rstrip().endswith(","):
+        # a comma closing each line ("1,2,3,", as some spreadsheets and loggers write rows) ends
+        # the row; it opens no fourth column (such files were refused as having 4 columns)
+        numbered = [(i, data.rstrip().removesuffix(",")) for i, data in numbered]
     body = "\n".join(line for _, line in numbered)
     if "d" in body or "D" in body:  # Fortran exponents (one scan of the text, not one per line)
         body = "\n".join(_as_read(line) for _, line in numbered)
@@ -267,114 +271,12 @@ def _load_text(path: Path) -> np.ndarray:
         return data
     columns = ", ".join(str(k + 1) for k in order[:2]) + f" and {order[2] + 1}"
     warnings.warn(
-        f"{path}: the header {_names(header)} names the columns in another order, so x, y "
-        f"and z were read from columns {columns} ({_names([header[k] for k in order])})",
+        f"{path}: the header {quoted_names(header)} names the columns in another order, so x, y "
+        f"and z were read from columns {columns} ({quoted_names([header[k] for k in order])})",
         CloudFileWarning,
         stacklevel=3,
     )
     return np.ascontiguousarray(data[:, order])
-
-
-def _axis_name(token: str) -> str:
-    """``x`` of a header such as ``X``, ``x [mm]``, ``x_mm``, ``x, mm``, ``"x"`` or ``pos_x`` (a
-    name whose last ``_``-separated part is the axis letter); other names up to their first
-    character that is not a letter or digit (``depth [mm]`` is ``depth``)."""
-    name = token.strip().strip("\"'").lower()
-    word = next((name[:k] for k, char in enumerate(name) if not char.isalnum()), name)
-    if word in ("x", "y", "z"):
-        return word
-    stem = next((name[:k] for k, char in enumerate(name) if not (char.isalnum() or char == "_")), name)
-    prefix, _, last = stem.rpartition("_")
-    return last if prefix and last in ("x", "y", "z") else word
-
-
-def _header_order(path: Path, tokens: list[str]) -> list[int] | None:
-    """The column order that puts a header's x, y and z first to last, when it names them.
-
-    A header such as ``z,x,y`` (or ``Z [mm],X [mm],Y [mm]``) names its columns: they are read
-    as the axes it names, so the cloud is the same as in a file that lists x, y, z in order.
-    A header naming two of the axes (``depth,x,y``) names the third column too. A header that
-    names no axis, or names them in their own columns (``x,y,height``), is a label only, and the
-    columns are x, y and z in file order.
-
-    Raises
-    ------
-    CloudFileError
-        A header of three columns that names one axis in another column (``a,x,b``) or an axis
-        twice: which column is which cannot be told, and file order would contradict it.
-    """
-    names = [_axis_name(t) for t in tokens]
-    if len(names) != 3:
-        return None
-    named = [name for name in names if name in ("x", "y", "z")]
-    distinct = len(set(named)) == len(named)
-    if distinct and all(names[k] == axis for k, axis in enumerate("xyz") if axis in names):
-        return None  # no axis named, or each in its own column: file order
-    if distinct and len(named) >= 2:  # the column not named is the axis not named
-        unnamed = next((k for k in range(3) if names[k] not in named), -1)  # -1: all three named
-        order = [names.index(axis) if axis in names else unnamed for axis in ("x", "y", "z")]
-        return None if order == [0, 1, 2] else order
-    raise CloudFileError(
-        f"{path}: the header {_names(tokens)} names "
-        + (
-            f"the axis {', '.join(sorted(set(n for n in named if named.count(n) > 1)))} more than once"
-            if len(set(named)) != len(named)
-            else f"{named[0]} as column {names.index(named[0]) + 1} but not the other axes"
-        )
-        + ": name the columns x, y and z (in any order), or give no header"
-    )
-
-
-_NPY_MAGIC = b"\x93NUMPY"
-
-
-def _check_npy_size(path: Path, handle: io.BufferedReader) -> None:
-    """Refuse a ``.npy`` file shorter than the array its header announces, before numpy
-    allocates that array (a header claiming 10**11 points ended in a 2.18 TiB MemoryError)."""
-    handle.seek(0)
-    try:
-        version = np.lib.format.read_magic(handle)
-        if version == (1, 0):
-            shape, _, dtype = np.lib.format.read_array_header_1_0(handle)
-        elif version == (2, 0):
-            shape, _, dtype = np.lib.format.read_array_header_2_0(handle)
-        else:  # 3.0 only adds UTF-8 field names of structured arrays: no point coordinates
-            return  # numpy's own reading says what it makes of it
-    except ValueError as exc:
-        raise CloudFileError(f"{path}: not a readable .npy array (damaged header: {exc})") from exc
-    if dtype.hasobject:  # pickled: no fixed size, and refused as such by the reading
-        return
-    need = math.prod(shape) * dtype.itemsize
-    held = os.fstat(handle.fileno()).st_size - handle.tell()
-    if held < need:
-        raise CloudFileError(
-            f"{path}: not a readable .npy array (truncated or damaged: its header announces shape "
-            f"{tuple(shape)} of {dtype}, {need:,} bytes of data, but the file holds {held:,})"
-        )
-
-
-def _load_npy(path: Path) -> np.ndarray:
-    """A numeric ``.npy`` array; never unpickled, and numpy's advice to unpickle is not relayed."""
-    try:
-        with open(path, "rb") as handle:
-            magic = handle.read(len(_NPY_MAGIC))
-            if magic == _NPY_MAGIC:
-                _check_npy_size(path, handle)
-    except OSError as exc:
-        raise CloudFileError(f"{path}: cannot read the file ({exc.strerror or exc})") from exc
-    if magic != _NPY_MAGIC:
-        raise CloudFileError(f"{path}: not a .npy array file (it does not start with numpy's .npy signature)")
-    try:
-        return np.load(path, allow_pickle=False)
-    except ValueError as exc:
-        if "pickle" in str(exc).lower():  # an object array: loading it could run code
-            raise CloudFileError(
-                f"{path}: holds Python objects, not numbers; such files are never loaded (loading them "
-                "could run code)"
-            ) from exc
-        raise CloudFileError(f"{path}: not a readable .npy array ({exc})") from exc
-    except (OSError, EOFError) as exc:
-        raise CloudFileError(f"{path}: not a readable .npy array (truncated or damaged: {exc})") from exc
 
 
 def load_cloud(path: str | os.PathLike[str]) -> np.ndarray:
@@ -393,7 +295,8 @@ def load_cloud(path: str | os.PathLike[str]) -> np.ndarray:
     CloudFileError
         Missing, empty or unreadable file; wrong number of columns; non-numeric text;
         NaN or infinite coordinates (the lines are named), a ``.npy`` file that is not a
-        numeric array (object arrays are never unpickled); a first line ``0,1,2`` that may
+        numeric array or a structured array of three numeric fields (object arrays are never
+        unpickled); a first line ``0,1,2`` that may
         be pandas' header of column numbers or a point (no comment above says which).
 
     Warns
@@ -414,7 +317,7 @@ def load_cloud(path: str | os.PathLike[str]) -> np.ndarray:
     if suffix in _TEXT_SUFFIXES:
         return _load_text(path)
     if suffix == ".npy":
-        data = _load_npy(path)
+        data = load_npy(path)
         try:
             return as_cloud(data, name=str(path))
         except InputError as exc:

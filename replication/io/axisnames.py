@@ -1,0 +1,81 @@
+"""Which column is which axis, read from the names a cloud file gives its columns.
+
+A text file's header (``z,x,y``, ``X [mm],Y [mm],Z [mm]``, ``pos_z,pos_x,pos_y``) and a
+structured ``.npy`` array's field names are read by the same rules, so the same names give
+the same cloud in either format (see :mod:`replication.io.clouds`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from replication.errors import CloudFileError
+
+__all__ = ["axis_name", "axis_order", "quoted_names"]
+
+
+def quoted_names(tokens: list[str]) -> str:
+    """Column names for a message, a name holding a comma in quotes (``"z, mm", "x, mm"``)."""
+    return ", ".join(f'"{t.strip()}"' if "," in t else t.strip() for t in tokens)
+
+
+def axis_name(token: str) -> str:
+    """``x`` of a name such as ``X``, ``x [mm]``, ``x_mm``, ``x, mm``, ``"x"`` or ``pos_x`` (a
+    name whose last ``_``-separated part is the axis letter); other names up to their first
+    character that is not a letter or digit (``depth [mm]`` is ``depth``)."""
+    name = token.strip().strip("\"'").lower()
+    word = next((name[:k] for k, char in enumerate(name) if not char.isalnum()), name)
+    if word in ("x", "y", "z"):
+        return word
+    stem = next((name[:k] for k, char in enumerate(name) if not (char.isalnum() or char == "_")), name)
+    prefix, _, last = stem.rpartition("_")
+    return last if prefix and last in ("x", "y", "z") else word
+
+
+def axis_order(path: Path, tokens: list[str], *, what: str = "header") -> list[int] | None:
+    """The column order that puts the named x, y and z first to last, when the names say it.
+
+    Names such as ``z,x,y`` (or ``Z [mm],X [mm],Y [mm]``) name the columns: they are read as
+    the axes they name, so the cloud is the same as in a file that lists x, y, z in order.
+    Names of two of the axes (``depth,x,y``) name the third column too. Names of no axis, or
+    of each axis in its own column (``x,y,height``), are a label only, and the columns are
+    x, y and z in their order.
+
+    Parameters
+    ----------
+    path : Path
+        The file, for messages.
+    tokens : list of str
+        The names, one per column.
+    what : str
+        What holds the names, for messages: ``"header"`` of a text file, ``"fields"`` of a
+        structured array.
+
+    Raises
+    ------
+    CloudFileError
+        Three names of which one names an axis in another column (``a,x,b``), or an axis
+        named twice: which column is which cannot be told, and their order would contradict it.
+    """
+    names = [axis_name(t) for t in tokens]
+    if len(names) != 3:
+        return None
+    named = [name for name in names if name in ("x", "y", "z")]
+    distinct = len(set(named)) == len(named)
+    if distinct and all(names[k] == axis for k, axis in enumerate("xyz") if axis in names):
+        return None  # no axis named, or each in its own column: their order
+    if distinct and len(named) >= 2:  # the column not named is the axis not named
+        unnamed = next((k for k in range(3) if names[k] not in named), -1)  # -1: all three named
+        order = [names.index(axis) if axis in names else unnamed for axis in ("x", "y", "z")]
+        return None if order == [0, 1, 2] else order
+    verb = "names" if what == "header" else "name"
+    raise CloudFileError(
+        f"{path}: the {what} {quoted_names(tokens)} {verb} "
+        + (
+            f"the axis {', '.join(sorted(set(n for n in named if named.count(n) > 1)))} more than once"
+            if len(set(named)) != len(named)
+            else f"{named[0]} as column {names.index(named[0]) + 1} but not the other axes"
+        )
+        + f": name the {'columns' if what == 'header' else 'fields'} x, y and z (in any order)"
+        + (", or give no header" if what == "header" else "")
+    )

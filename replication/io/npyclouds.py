@@ -1,0 +1,133 @@
+"""Point clouds in numpy's ``.npy`` files: an (n, 3) array, or a structured array of three fields.
+
+A structured array (``dtype=[("x", "f8"), ("y", "f8"), ("z", "f8")]``, as a numpy record
+array or ``DataFrame.to_records(index=False)`` saves it) is a cloud when it has three real
+numeric fields: they are read by their names as a text file's header is
+(:func:`replication.io.axisnames.axis_order`), so fields ``z, x, y`` give the same cloud as
+columns headed ``z,x,y``, and fields that name no axis are read in their order with a
+:class:`~replication.errors.CloudFileWarning`. Arrays of Python objects are never loaded
+(unpickling could run code), and a file shorter than its header announces is refused before
+numpy allocates the array.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from replication.errors import CloudFileError, CloudFileWarning
+from replication.io.axisnames import axis_name, axis_order, quoted_names
+
+__all__ = ["load_npy"]
+
+_NPY_MAGIC = b"\x93NUMPY"
+
+
+def _check_npy_size(path: Path, handle: io.BufferedReader) -> None:
+    """Refuse a ``.npy`` file shorter than the array its header announces, before numpy
+    allocates that array (a header claiming 10**11 points ended in a 2.18 TiB MemoryError)."""
+    handle.seek(0)
+    try:
+        version = np.lib.format.read_magic(handle)
+        if version == (1, 0):
+            shape, _, dtype = np.lib.format.read_array_header_1_0(handle)
+        elif version == (2, 0):
+            shape, _, dtype = np.lib.format.read_array_header_2_0(handle)
+        else:  # 3.0 only adds UTF-8 field names of structured arrays
+            return  # numpy's own reading says what it makes of it
+    except ValueError as exc:
+        raise CloudFileError(f"{path}: not a readable .npy array (damaged header: {exc})") from exc
+    if dtype.hasobject:  # pickled: no fixed size, and refused as such by the reading
+        return
+    need = math.prod(shape) * dtype.itemsize
+    held = os.fstat(handle.fileno()).st_size - handle.tell()
+    if held < need:
+        raise CloudFileError(
+            f"{path}: not a readable .npy array (truncated or damaged: its header announces shape "
+            f"{tuple(shape)} of {dtype}, {need:,} bytes of data, but the file holds {held:,})"
+        )
+
+
+def _read(path: Path) -> np.ndarray:
+    """The array of a ``.npy`` file; never unpickled, and numpy's advice to unpickle is not relayed."""
+    try:
+        with open(path, "rb") as handle:
+            magic = handle.read(len(_NPY_MAGIC))
+            if magic == _NPY_MAGIC:
+                _check_npy_size(path, handle)
+    except OSError as exc:
+        raise CloudFileError(f"{path}: cannot read the file ({exc.strerror or exc})") from exc
+    if magic != _NPY_MAGIC:
+        raise CloudFileError(f"{path}: not a .npy array file (it does not start with numpy's .npy signature)")
+    try:
+        return np.load(path, allow_pickle=False)
+    except ValueError as exc:
+        if "pickle" in str(exc).lower():  # an object array: loading it could run code
+            raise CloudFileError(
+                f"{path}: holds Python objects, not numbers; such files are never loaded (loading them "
+                "could run code)"
+            ) from exc
+        raise CloudFileError(f"{path}: not a readable .npy array ({exc})") from exc
+    except (OSError, EOFError) as exc:
+        raise CloudFileError(f"{path}: not a readable .npy array (truncated or damaged: {exc})") from exc
+
+
+def _unstructured(path: Path, data: np.ndarray) -> np.ndarray:
+    """The (n, 3) coordinates of a structured array of three real numeric fields."""
+    names = list(data.dtype.names or ())
+    fields = [data.dtype.fields[name][0] for name in names]
+    listed = quoted_names(names)
+    nested = [name for name, field in zip(names, fields) if field.subdtype is not None or field.names]
+    if nested:
+        field = data.dtype.fields[nested[0]][0]
+        held = f"the fields {', '.join(field.names)}" if field.names else f"{math.prod(field.shape)} values"
+        raise CloudFileError(
+            f"{path}: the field {nested[0]} of the structured array holds {held} per record; save the "
+            f"coordinates as an (n, 3) array (np.save(file, data[{nested[0]!r}]) when they are that "
+            "field), or as three fields x, y, z"
+        )
+    odd = [name for name, field in zip(names, fields) if field.kind not in "iuf"]
+    if odd:
+        kinds = ", ".join(f"{name}: {data.dtype.fields[name][0]}" for name in odd)
+        raise CloudFileError(
+            f"{path}: a structured array whose fields are not all real numbers ({kinds}); a point "
+            "cloud is an (n, 3) array of numbers or a structured array of three numeric fields x, y, z"
+        )
+    if len(names) != 3:
+        raise CloudFileError(
+            f"{path}: a structured array of {len(names)} field(s) ({listed}); a point cloud has 3 "
+            "(x, y, z): save the three coordinate fields only"
+        )
+    if data.ndim != 1:
+        raise CloudFileError(
+            f"{path}: a structured array must have one dimension (one record per point), got shape "
+            f"{data.shape}"
+        )
+    order = axis_order(path, names, what="fields") or [0, 1, 2]
+    if not any(axis_name(name) in ("x", "y", "z") for name in names):
+        warnings.warn(
+            f"{path}: the fields {listed} name none of the axes x, y and z, so they were read in their "
+            "order as x, y and z; name them x, y and z (in any order) to say otherwise",
+            CloudFileWarning,
+            stacklevel=4,
+        )
+    return np.column_stack([data[names[k]].astype(np.float64) for k in order]).reshape(-1, 3)
+
+
+def load_npy(path: Path) -> np.ndarray:
+    """The array of a ``.npy`` point-cloud file, a structured array as its (n, 3) coordinates.
+
+    Raises
+    ------
+    CloudFileError
+        Not a ``.npy`` file, truncated or damaged, an array of Python objects, or a structured
+        array that is not three real numeric fields over one dimension. The shape and values
+        of a plain array are checked by the caller (:func:`replication.surfaces.cloud.as_cloud`).
+    """
+    data = _read(path)
+    return _unstructured(path, data) if data.dtype.names is not None else data

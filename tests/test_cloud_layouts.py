@@ -1,0 +1,155 @@
+"""Point-cloud files in layouts other programs write: numpy structured arrays, rows ending in a comma."""
+
+import itertools
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as hst
+from hypothesis.extra import numpy as hnp
+
+from replication.errors import CloudFileError, CloudFileWarning
+from replication.io import load_cloud, save_cloud
+
+CLOUD = np.array([[0.0, 1.5, -2.0], [3.0, 4.25, 5.0], [0.1, 1e-5, 7.0], [-1.0, 2.0, 0.5]])
+
+
+def _records(cloud, names, formats=("f8", "f8", "f8"), order=(0, 1, 2)):
+    """The cloud as a structured array whose k-th field holds coordinate ``order[k]``."""
+    records = np.zeros(len(cloud), dtype=list(zip(names, formats)))
+    for name, axis in zip(names, order):
+        records[name] = cloud[:, axis]
+    return records
+
+
+def test_a_structured_array_of_x_y_z_reads_as_the_plain_array(tmp_path):
+    # was: "must be numeric, got ndarray: Cannot cast array data from dtype([('x', '<f8'), ...
+    np.save(tmp_path / "r.npy", _records(CLOUD, ["x", "y", "z"]))
+    np.save(tmp_path / "plain.npy", CLOUD)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # fields named x, y, z in order: nothing to say
+        np.testing.assert_array_equal(load_cloud(tmp_path / "r.npy"), load_cloud(tmp_path / "plain.npy"))
+    np.save(tmp_path / "rec.npy", np.rec.fromarrays(CLOUD.T, names="x,y,z"))  # a record array
+    np.testing.assert_array_equal(load_cloud(tmp_path / "rec.npy"), CLOUD)
+
+
+@pytest.mark.parametrize("order", list(itertools.permutations(range(3))))
+@pytest.mark.parametrize(
+    "style", [("x", "y", "z"), ("X [mm]", "Y [mm]", "Z [mm]"), ("pos_x", "pos_y", "pos_z")]
+)
+def test_field_names_say_which_field_is_which_axis_as_a_header_does(tmp_path, order, style):
+    """The same names give the same cloud as a structured .npy and as a .csv header."""
+    names = [style[axis] for axis in order]
+    np.save(tmp_path / "r.npy", _records(CLOUD, names, order=order))
+    rows = "".join(",".join(repr(float(point[axis])) for axis in order) + "\n" for point in CLOUD)
+    (tmp_path / "c.csv").write_text(",".join(names) + "\n" + rows)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CloudFileWarning)  # the .csv says it reordered its columns
+        from_csv = load_cloud(tmp_path / "c.csv")
+    np.testing.assert_array_equal(load_cloud(tmp_path / "r.npy"), CLOUD)
+    np.testing.assert_array_equal(from_csv, CLOUD)
+
+
+def test_fields_of_other_numeric_types_are_read_as_float64(tmp_path):
+    cloud = np.array([[1, 2, 3], [4, 5, 6], [7, 8, 10]], dtype=np.float64)
+    np.save(tmp_path / "r.npy", _records(cloud, ["z", "x", "y"], ("f4", "i2", "u8"), order=(2, 0, 1)))
+    loaded = load_cloud(tmp_path / "r.npy")
+    assert loaded.dtype == np.float64 and loaded.flags.c_contiguous
+    np.testing.assert_array_equal(loaded, cloud)
+
+
+def test_fields_that_name_no_axis_are_read_in_their_order_with_a_warning(tmp_path):
+    np.save(tmp_path / "r.npy", _records(CLOUD, ["east", "north", "height"]))
+    with pytest.warns(CloudFileWarning, match=r"the fields east, north, height name none of the axes"):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "r.npy"), CLOUD)
+
+
+@pytest.mark.parametrize(
+    ("dtype", "shape", "match"),
+    [
+        (
+            [("x", "f8"), ("y", "f8"), ("z", "f8"), ("i", "f8")],
+            (4,),
+            r"4 field\(s\) \(x, y, z, i\); a point cloud has 3",
+        ),
+        ([("x", "f8"), ("y", "f8")], (4,), r"2 field\(s\) \(x, y\)"),
+        ([("x", "f8"), ("y", "U3"), ("z", "f8")], (4,), r"not all real numbers \(y: <U3\)"),
+        ([("x", "f8"), ("y", "c16"), ("z", "f8")], (4,), r"not all real numbers \(y: complex128\)"),
+        ([("x", "f8"), ("y", "?"), ("z", "f8")], (4,), r"not all real numbers \(y: bool\)"),
+        ([("xyz", "f8", (3,))], (4,), r"the field xyz .* holds 3 values per record; .*data\['xyz'\]"),
+        (
+            [("p", [("a", "f8"), ("b", "f8")]), ("y", "f8"), ("z", "f8")],
+            (4,),
+            r"the field p .* the fields a, b",
+        ),
+        (
+            [("x", "f8"), ("X [mm]", "f8"), ("z", "f8")],
+            (4,),
+            r"name the axis x more than once: name the fields",
+        ),
+        ([("a", "f8"), ("x", "f8"), ("b", "f8")], (4,), r"name x as column 2 but not the other axes"),
+        ([("x", "f8"), ("y", "f8"), ("z", "f8")], (2, 2), r"one dimension .*got shape \(2, 2\)"),
+    ],
+)
+def test_structured_arrays_that_are_not_a_cloud_are_refused_by_name(tmp_path, dtype, shape, match):
+    np.save(tmp_path / "r.npy", np.zeros(shape, dtype=dtype))
+    with pytest.raises(CloudFileError, match=match) as caught:
+        load_cloud(tmp_path / "r.npy")
+    assert str(caught.value).startswith(str(tmp_path / "r.npy")) and "\n" not in str(caught.value)
+
+
+def test_a_structured_cloud_is_checked_like_a_plain_one(tmp_path):
+    cloud = CLOUD.copy()
+    cloud[2, 1] = np.nan
+    np.save(tmp_path / "r.npy", _records(cloud, ["x", "y", "z"]))
+    with pytest.raises(CloudFileError, match=r"NaN or infinite coordinates in 1 row\(s\), counted from 0: 2"):
+        load_cloud(tmp_path / "r.npy")
+
+
+@pytest.mark.parametrize("header", ["x,y,z,\n", "x,y,z\n", ""])
+@pytest.mark.parametrize("ending", ["\n", "\r\n"])
+def test_rows_that_end_in_a_comma_have_three_columns(tmp_path, header, ending):
+    # was: "line 2 has 4 column(s), expected 3 (x, y, z): '0.0,1.5,-2.0,'"
+    rows = "".join(",".join(repr(float(v)) for v in point) + "," + ending for point in CLOUD)
+    (tmp_path / "c.csv").write_bytes((header.replace("\n", ending) + rows).encode())
+    np.testing.assert_array_equal(load_cloud(tmp_path / "c.csv"), CLOUD)
+    (tmp_path / "spaced.csv").write_text(header + rows.replace(",", ", ").replace(", \n", " ,  \n"))
+    np.testing.assert_array_equal(load_cloud(tmp_path / "spaced.csv"), CLOUD)
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("x,y,z,\n0,1,2,\n1,0,3,\n1,1,,\n", r"line 4, column 3: '' is not a number"),  # a missing z
+        ("0,1,2,\n1,0,3,\n1,1,4,5,\n", r"line 3 has 4 column\(s\), expected 3"),  # a fourth value
+        ("0,1,5\n1,0,3,\n1,1,4\n", r"line 2 has 4 column\(s\), expected 3"),  # the first row has none
+    ],
+)
+def test_a_closing_comma_does_not_hide_a_missing_or_extra_value(tmp_path, text, match):
+    (tmp_path / "c.csv").write_text(text)
+    with pytest.raises(CloudFileError, match=match):
+        load_cloud(tmp_path / "c.csv")
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    hnp.arrays(
+        np.float64,
+        hst.tuples(hst.integers(1, 10), hst.just(3)),
+        elements=hst.floats(allow_nan=False, allow_infinity=False, allow_subnormal=True),
+    ),
+    hst.permutations(range(3)),
+)
+def test_a_cloud_reads_the_same_from_csv_plain_npy_and_structured_npy(cloud, order):
+    import tempfile
+    from pathlib import Path
+
+    cloud = cloud + 0.0  # -0.0 may read back as 0.0 from text
+    with tempfile.TemporaryDirectory() as scratch:
+        scratch = Path(scratch)
+        save_cloud(cloud, scratch / "c.csv")
+        save_cloud(cloud, scratch / "c.npy")
+        np.save(scratch / "r.npy", _records(cloud, ["xyz"[axis] for axis in order], order=order))
+        for name in ("c.csv", "c.npy", "r.npy"):
+            np.testing.assert_array_equal(load_cloud(scratch / name), cloud)
