@@ -988,15 +988,30 @@ def test_a_dangling_link_is_not_just_not_found(tmp_path, capsys, monkeypatch):
 
 
 @pytest.mark.parametrize(
-    ("shape", "said"), [("points", "10 vertex cell(s)"), ("quads", "4 polygon(s) of 4 corners")]
+    ("shape", "said"),
+    [
+        ("points", "the surface must consist of faces only; it holds 10 vertex cell(s)"),
+        ("lines", "the surface must consist of faces only; it holds 1 line(s), 2 polygon(s) of 4 corners"),
+        (
+            "warped",
+            "4 of its 4 polygon(s) of more than 3 corners are not flat (cell 0, counted from 0, bends",
+        ),
+    ],
 )
 def test_a_mesh_of_other_cells_says_what_it_holds(shape, said, tmp_path, capsys):
     import pyvista as pv
 
     from replication.cli import main
 
-    mesh = pv.PolyData(np.random.default_rng(0).random((10, 3))) if shape == "points" else pv.Plane(
-        i_resolution=2, j_resolution=2)  # fmt: skip
+    if shape == "points":
+        mesh = pv.PolyData(np.random.default_rng(0).random((10, 3)))
+    elif shape == "lines":
+        mesh = pv.Plane(i_resolution=2, j_resolution=1)
+        mesh.lines = [2, 0, 1]
+    else:
+        mesh = pv.Plane(i_resolution=2, j_resolution=2, center=(18, 0, 0), i_size=20, j_size=20)
+        mesh.points[:, 2] = 5 + 0.01 * (mesh.points[:, 0] - 18) * mesh.points[:, 1]
     mesh.save(tmp_path / "m.vtp")
-    assert main(["force", str(tmp_path / "m.vtp")]) == 1
-    assert f"the surface must consist of triangles only; it holds {said}" in capsys.readouterr().err
+    assert main(["force", str(tmp_path / "m.vtp"), "--full-jet"]) == 1
+    err = capsys.readouterr().err
+    assert said in err and err.count("\n") == 1

@@ -550,9 +550,11 @@ def test_save_cloud_bad_suffix(tmp_path):
 # ---- reading surfaces -----------------------------------------------------------------------
 
 
-def test_read_surface_rejects_non_triangles(tmp_path):
-    pv.Plane(i_resolution=2, j_resolution=2).save(tmp_path / "quads.vtk")
-    with pytest.raises(CloudFileError, match="triangles only"):
+def test_read_surface_rejects_warped_quads(tmp_path):
+    plane = pv.Plane(i_resolution=2, j_resolution=2)
+    plane.points[:, 2] = plane.points[:, 0] * plane.points[:, 1]  # a saddle: no quad is flat
+    plane.save(tmp_path / "quads.vtk")
+    with pytest.raises(CloudFileError, match=r"4 of its 4 polygon\(s\) of more than 3 corners are not flat"):
         read_surface(tmp_path / "quads.vtk")
 
 

@@ -27,7 +27,8 @@ examples:
       the paper's half jet (18 mm, 4.34 m/s, centred at x = 18, y = 0 mm) on the ADT surface
       (depth axis z) of a point cloud in millimetres
   replication force my_mesh.vtp --json
-      any triangulated height field z(x, y) (.vtk or .vtp), one JSON object
+      any height field z(x, y) meshed in triangles, triangle strips or flat polygons (.vtk or
+      .vtp; a warped quad is refused: how it is cut decides the surface), one JSON object
   replication force bucket.csv --solver sph --particle-radius 0.75 --duration 20
       an SPH simulation with SPlisHSPlasH instead of the thin-sheet model (pip install ".[sph]")
 

@@ -258,6 +258,63 @@ def _cells(mesh: Any) -> str:
     return ", ".join(kinds) or "no faces"
 
 
+#: How far a polygon's corners may lie from its plane, relative to its size, for it to be flat:
+#: float rounding of a flat polygon's coordinates is about 1e-16 of its size.
+FLAT_POLYGON = 1e-9
+
+
+def _bends(
+    points: np.ndarray, offsets: np.ndarray, connectivity: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each polygon's largest distance of a corner from its plane, over its size (0 for a flat one).
+
+    The plane is the one through the corners' centroid with Newell's normal, which is the
+    normal of a flat polygon of any shape (convex or not) and the best plane of a warped quad.
+    Returns the cells of more than three corners and their bends.
+    """
+    sizes = np.diff(offsets)
+    cells = np.flatnonzero(sizes > 3)
+    bends = np.zeros(cells.size)
+    for corners in np.unique(sizes[cells]):  # one vectorised pass per number of corners
+        chosen = cells[sizes[cells] == corners]
+        p = points[connectivity[offsets[chosen][:, None] + np.arange(corners)]]  # (m, corners, 3)
+        normal = np.cross(p, np.roll(p, -1, axis=1)).sum(axis=1)
+        length = np.linalg.norm(normal, axis=1)
+        unit = np.divide(normal, length[:, None], out=np.zeros_like(normal), where=length[:, None] > 0)
+        away = np.abs(np.einsum("mkd,md->mk", p - p.mean(axis=1, keepdims=True), unit)).max(axis=1)
+        extent = np.linalg.norm(p.max(axis=1) - p.min(axis=1), axis=1)
+        bends[sizes[cells] == corners] = np.divide(away, extent, out=np.zeros_like(away), where=extent > 0)
+    return cells, bends
+
+
+def _as_triangles(path: Path, mesh: Any) -> Any:
+    """A mesh of triangles, flat polygons and triangle strips, cut into triangles.
+
+    A strip is a list of triangles, and a flat polygon is the same surface however it is cut,
+    so both are read. A polygon whose corners do not lie in one plane (a warped quad) has no
+    one surface: which diagonal cuts it decides where the water goes, so it is refused, as
+    are vertex and line cells (points and curves, not faces).
+    """
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    if mesh.n_verts or mesh.n_lines:
+        raise CloudFileError(f"{path}: the surface must consist of faces only; it holds {_cells(mesh)}")
+    polys = mesh.GetPolys()
+    offsets = vtk_to_numpy(polys.GetOffsetsArray()).astype(np.int64)
+    connectivity = vtk_to_numpy(polys.GetConnectivityArray()).astype(np.int64)
+    cells, bends = _bends(np.asarray(mesh.points, dtype=np.float64), offsets, connectivity)
+    warped = bends > FLAT_POLYGON
+    if warped.any():
+        first = int(np.argmax(warped))
+        raise CloudFileError(
+            f"{path}: {int(warped.sum())} of its {cells.size} polygon(s) of more than 3 corners are not flat "
+            f"(cell {int(cells[first])}, counted from 0, bends by {bends[first]:.2g} of its size), so the "
+            "surface between their corners depends on how they are cut into triangles: triangulate the "
+            "mesh as you mean it (pyvista: mesh.triangulate())"
+        )
+    return mesh.triangulate()
+
+
 def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
     """Read a triangle surface (``.vtk`` or ``.vtp``) with VTK; return (points, triangles).
 
@@ -266,7 +323,9 @@ def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
     Raises
     ------
     CloudFileError
-        Missing or unreadable file, or a mesh that is not made of triangles only.
+        Missing or unreadable file, or a mesh that is not made of faces that are triangles,
+        triangle strips or flat polygons (those are cut into triangles; see
+        :func:`_as_triangles`).
     """
     import pyvista as pv
     from vtkmodules.vtkIOLegacy import vtkPolyDataReader
@@ -300,7 +359,7 @@ def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
     if mesh.n_cells == 0:
         raise CloudFileError(f"{path}: points but no triangles in the file (is it cut short?){why}")
     if not mesh.is_all_triangles:
-        raise CloudFileError(f"{path}: the surface must consist of triangles only; it holds {_cells(mesh)}")
+        mesh = _as_triangles(path, mesh)
     points = np.asarray(mesh.points, dtype=np.float64)
     triangles = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 4)[:, 1:]
     return points, triangles
