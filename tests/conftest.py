@@ -95,7 +95,8 @@ def quick_reports(tmp_path_factory):
     """``replication reproduce --quick`` once per test run, run from a scratch directory.
 
     The directory is a stand-in for a project checkout (the README and pyproject.toml beside
-    ``reports/``), so the run also shows what reproducing into a checkout does to its README.
+    the reports), so the run also shows that a quick run leaves a checkout's README alone: its
+    reports go to ``reports-quick/``, never into the committed ``reports/``.
     Under pytest-xdist the workers share one run: the first worker to ask runs it in the
     directory all workers' temporary directories share, the others wait for it (a file
     lock) and read the same reports. Tests must not change them: they work on a copy.
@@ -110,14 +111,13 @@ def quick_reports(tmp_path_factory):
         root = Path(__file__).resolve().parents[1]
         for name in ("README.md", "pyproject.toml"):
             shutil.copy(root / name, work / name)
-        out = work / "reports"
         previous = os.getcwd()
-        os.chdir(work)  # the GA's checkpoints go to ./casestudy-runs
+        os.chdir(work)  # the GA's checkpoints go to ./casestudy-runs, the reports to ./reports-quick
         try:
-            assert main(["reproduce", "--quick", "--output-dir", str(out)]) == 0
+            assert main(["reproduce", "--quick"]) == 0
         finally:
             os.chdir(previous)
-        return out
+        return work / "reports-quick"
 
     try:
         import fcntl
@@ -134,7 +134,7 @@ def quick_reports(tmp_path_factory):
             outcome = status.read_text()
             if outcome != "ok":
                 pytest.fail(f"the quick reproduce failed in another xdist worker: {outcome}")
-            return work / "reports"
+            return work / "reports-quick"
         try:
             shutil.rmtree(work, ignore_errors=True)  # left by a worker that died during the run
             work.mkdir()

@@ -294,7 +294,7 @@ def test_a_study_with_other_settings_does_not_replace_the_committed_report(
     assert main(["validate-jet", *extra, "--cache-dir", "cache"]) == 2  # needs --output-dir: misused
     err = capsys.readouterr().err
     assert f"with {named} the study may differ from the committed one in reports/" in err
-    assert "--output-dir reports to replace it" in err and len(err.splitlines()) == 1
+    assert "name a report directory with --output-dir" in err and len(err.splitlines()) == 1
     assert list(tmp_path.iterdir()) == []
 
 

@@ -38,15 +38,27 @@ def test_readme_headline_block_matches_the_committed_reports():
     assert block == headline(ROOT / "reports")
 
 
-def test_reproduce_into_a_checkout_refreshes_its_readme(quick_reports):
-    """The README's two commands in order stay green on any machine: ``replication reproduce``
-    into a checkout's reports/ rewrites the README headline block from the new data."""
+def test_a_quick_run_leaves_the_checkout_readme_and_reports_refresh_it(quick_reports, tmp_path, capsys):
+    """The README's two commands in order stay green on any machine: reports drawn into a
+    checkout's reports/ rewrite the README headline block from their data (``reproduce`` with the
+    paper's settings, or ``report``); a quick run goes to reports-quick/ and leaves it alone."""
+    import shutil
+
+    from replication.cli import main
     from replication.report.index import END, START, headline
 
-    text = (quick_reports.parent / "README.md").read_text()
-    block = text.split(START, 1)[1].split(END, 1)[0].strip().splitlines()
-    assert block == headline(quick_reports) and block  # the quick run's numbers, not the committed ones
     committed = (ROOT / "README.md").read_text()
+    assert quick_reports.name == "reports-quick"
+    assert (quick_reports.parent / "README.md").read_text() == committed  # the stand-in checkout's
+    for name in ("README.md", "pyproject.toml"):
+        shutil.copy(ROOT / name, tmp_path / name)
+    out = shutil.copytree(quick_reports, tmp_path / "reports")
+    assert main(["report", "--output-dir", str(out)]) == 0
+    assert f"wrote {tmp_path / 'README.md'}\n" in capsys.readouterr().out
+    text = (tmp_path / "README.md").read_text()
+    block = text.split(START, 1)[1].split(END, 1)[0].strip().splitlines()
+    assert block == headline(out) and block  # the quick data's numbers, not the committed ones
+    assert block != headline(ROOT / "reports")
     assert text.split(START)[0] == committed.split(START)[0] and text.split(END)[1] == committed.split(END)[1]
 
 

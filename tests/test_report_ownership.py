@@ -1,4 +1,4 @@
-"""Who writes reports/: the paper's settings or an explicit --output-dir; others report beside their run."""
+"""Who writes reports/: the paper's settings only; other runs report beside their run or elsewhere."""
 
 import argparse
 import shutil
@@ -37,6 +37,68 @@ def test_where_the_case_study_reports(tmp_path, monkeypatch, changes, where, not
     if noted:
         assert "settings differ from the paper's" in plan.note and "(paper: " in plan.note
     assert list(tmp_path.iterdir()) == []  # planning creates nothing
+
+
+def _checkout(root):
+    """A stand-in for a checkout of the project: its README and pyproject.toml, no reports yet."""
+    from pathlib import Path
+
+    source = Path(__file__).resolve().parents[1]
+    for name in ("README.md", "pyproject.toml"):
+        shutil.copy(source / name, root / name)
+    return (root / "README.md").read_text()
+
+
+@pytest.mark.parametrize(
+    ("command", "named"),
+    [
+        (["reproduce", "--quick"], "--quick"),
+        (["table1", "--quick"], "--quick"),
+        (["sph", "--quick"], "--quick"),
+        (["casestudy", "--quick"], "--quick"),
+        (
+            ["casestudy", "--runs", "1", "--generations", "2"],
+            "generations 2 (paper: 50) and runs 1 (paper: 3)",
+        ),
+        (["casestudy", "--rescore", "sph"], "--rescore sph"),
+        (["validate-jet", "--timeout", "1"], "--timeout 1"),
+        (["validate-jet", "--timeout", "1", "--ga-run-dir", "ga"], "--timeout 1 and --ga-run-dir ga"),
+        (["report", "--performance", "--commits", "3"], "--commits 3"),
+    ],
+)
+def test_a_run_with_other_settings_never_writes_a_checkout_s_committed_reports(
+    tmp_path, monkeypatch, capsys, command, named
+):
+    # was: `casestudy --runs 1 --generations 2 --population 8 --output-dir reports` replaced the
+    # committed case study and put "best GA surfaces 4.41-4.41 N" into the README's headline
+    monkeypatch.chdir(tmp_path)
+    readme = _checkout(tmp_path)
+    if command[0] == "report":
+        (tmp_path / "reports").mkdir()  # report redraws what is there
+    before = sorted(p.name for p in tmp_path.iterdir())
+    assert main([*command, "--output-dir", "reports"]) == 2
+    err = capsys.readouterr().err
+    assert "--output-dir reports is this checkout's committed reports" in err
+    assert f"a run with {named} would replace them: name another directory" in err
+    assert len(err.splitlines()) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == before  # refused before any work
+    assert (tmp_path / "README.md").read_text() == readme
+
+
+def test_the_paper_s_settings_and_other_directories_are_not_refused(tmp_path, monkeypatch):
+    from replication.cli.casestudy import plan_casestudy
+    from replication.cli.outputs import check_not_committed
+
+    monkeypatch.chdir(tmp_path)
+    _checkout(tmp_path)
+    assert str(plan_casestudy(_args(run_dir="RUN", output_dir="reports")).out) == "reports"  # the paper's
+    assert str(plan_casestudy(_args(run_dir="RUN", runs=1, output_dir="mine")).out) == "mine"
+    check_not_committed(tmp_path / "reports-quick", ["--quick"])  # not the committed reports/
+    check_not_committed(tmp_path / "reports", [])  # nothing custom
+    (tmp_path / "elsewhere").mkdir()
+    check_not_committed(tmp_path / "elsewhere" / "reports", ["--quick"])  # no checkout beside it
+    with pytest.raises(Exception, match="committed reports"):  # the same directory by another name
+        check_not_committed(tmp_path / "elsewhere" / ".." / "reports", ["--quick"])
 
 
 def test_resuming_keeps_the_run_s_own_destination(tmp_path, monkeypatch):

@@ -7,7 +7,8 @@ settings given explicitly are compared with them. Where the report goes: ``--out
 when given; else ``reports/`` for the paper's settings, ``reports-quick/`` for the
 ``--quick`` settings, and the run's own directory (``RUN_DIR/report/``) for any other
 settings or an SPH fitness (``--rescore sph``, ``--solver sph``), so that a trial run never
-overwrites the committed paper report.
+overwrites the committed paper report; such a run is refused before any work when
+``--output-dir`` names a checkout's ``reports/`` (:func:`replication.cli.outputs.check_not_committed`).
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ from replication.cli.common import (
 from replication.cli.outputs import (
     DEFAULT_DIR,
     QUICK_DIR,
+    check_not_committed,
     finish_reports,
     missing_dirs,
     remove_unused_run_dir,
@@ -72,7 +74,8 @@ uninterrupted run would. Settings given together with --resume must match the re
 
 The report goes to {DEFAULT_DIR}/ only for the paper's settings ({QUICK_DIR}/ with --quick); a run
 with other settings, or with --rescore sph or --solver sph, reports into its run directory
-(RUN_DIR/report/), unless --output-dir names a directory.
+(RUN_DIR/report/), unless --output-dir names a directory; a checkout's committed {DEFAULT_DIR}/
+is refused for them, since it holds the paper's results and the README's headline numbers.
 
 --rescore sph simulates the best distinct surfaces of each run, the flat plate and the bucket
 by SPH (the fitness of record: the thin-sheet model ranks cup-like surfaces unlike SPH) on the
@@ -136,6 +139,14 @@ def _default_report_dir(config: Any, run_dir: Path) -> tuple[Path, str]:
         f"settings differ from the paper's ({differ}): the report goes to {run_dir / 'report'}/, "
         f"not {DEFAULT_DIR}/ (name a directory with --output-dir)"
     )
+
+
+def _custom_settings(config: Any, sph_option: str | None) -> list[str]:
+    """What makes a run's report another than the committed paper report, in words."""
+    from replication.experiments.casestudy import differences_from_paper, quick_ga_config
+
+    custom = ["--quick"] if config == quick_ga_config() else differences_from_paper(config.as_dict())
+    return [*custom, *([sph_option] if sph_option else [])]
 
 
 def _resume_config(args: argparse.Namespace, run_dir: Path) -> Any:
@@ -229,6 +240,8 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
             "--output-dir)"
         )
     out = Path(args.output_dir) if args.output_dir else default_out
+    if args.output_dir and default_out != Path(DEFAULT_DIR):
+        check_not_committed(out, _custom_settings(config, sph_option))
     what = "--output-dir" if args.output_dir else "the reports directory"
     check_report_dir(out, what)
     check_pages(out, what, ("casestudy.md", "index.md"))

@@ -1,9 +1,12 @@
 """Where the report commands write, checked before the work starts.
 
-* ``reports/`` is the canonical, committed set of results: the paper's settings write there
-  (``reproduce``, ``table1``, ``casestudy`` with its defaults), or any run the user points at
-  it with ``--output-dir``. ``--quick`` runs go to ``reports-quick/``; a case study with other
-  settings reports into its own GA run directory (see :mod:`replication.cli.casestudy`).
+* ``reports/`` is the canonical, committed set of results: only the paper's settings write
+  there (``reproduce``, ``table1``, ``casestudy`` with its defaults, or those commands pointed
+  at it with ``--output-dir``). ``--quick`` runs go to ``reports-quick/``; a case study with
+  other settings reports into its own GA run directory (see :mod:`replication.cli.casestudy`).
+  A run with other settings is refused before any work when ``--output-dir`` names the
+  ``reports/`` of a checkout (:func:`check_not_committed`): it would replace the committed
+  results, and the README's headline numbers would then be the trial run's.
 * Output directories are checked for writability (a probe file) before minutes of computing,
   and created only when there is something to write, so a failed command leaves none behind.
 * When the reports land in ``reports/`` of a checkout of this project, the README's headline
@@ -17,7 +20,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from replication.io.paths import REPORT_SUBDIRS, check_report_dir
@@ -26,6 +29,7 @@ __all__ = [
     "DEFAULT_DIR",
     "QUICK_DIR",
     "TABLE1_SUBDIRS",
+    "check_not_committed",
     "checkout_readme",
     "finish_reports",
     "missing_dirs",
@@ -43,15 +47,21 @@ def planned_output_dir(
     args: argparse.Namespace,
     pages: tuple[str, ...] | Callable[[Path], tuple[str, ...]],
     subdirs: tuple[str, ...] = REPORT_SUBDIRS,
+    custom: Sequence[str] = (),
 ) -> Path:
     """The reports directory of ``table1``/``reproduce``/``sph``/``validate-jet``, checked (not
     created), with the ``subdirs`` the command writes into and the ``pages`` it writes (each
     absent or a page of ours, :func:`replication.report.pages.check_pages`; a function of the
-    directory when which pages are drawn depends on what it holds)."""
+    directory when which pages are drawn depends on what it holds). ``custom`` names the
+    settings of the run that are not the paper's besides ``--quick`` (see
+    :func:`check_not_committed`)."""
     from replication.report.pages import check_pages
 
     explicit = getattr(args, "output_dir", None)
-    out = Path(explicit or (QUICK_DIR if getattr(args, "quick", False) else DEFAULT_DIR))
+    quick = getattr(args, "quick", False)
+    out = Path(explicit or (QUICK_DIR if quick else DEFAULT_DIR))
+    if explicit:
+        check_not_committed(out, [*(["--quick"] if quick else []), *custom])
     what = "--output-dir" if explicit else "the reports directory"
     check_report_dir(out, what, subdirs)
     check_pages(out, what, pages(out) if callable(pages) else pages)
@@ -78,6 +88,30 @@ def checkout_readme(out: str | Path) -> Path | None:
     except (OSError, UnicodeDecodeError):
         return None
     return readme if START in text and END in text else None
+
+
+def check_not_committed(out: str | Path, custom: Sequence[str]) -> None:
+    """Refuse a run with ``custom`` settings (not the paper's) that reports into a checkout's ``reports/``.
+
+    The committed reports are the paper's settings' results, and the README's headline block is
+    drawn from them (:func:`finish_reports`); a trial run written there would replace both
+    (``casestudy --runs 1 --generations 2 --output-dir reports`` put "best GA surfaces
+    4.41-4.41 N" into the README). A directory that is not ``reports/`` beside a checkout's
+    README is anyone's to write.
+
+    Raises
+    ------
+    UsageError
+        ``custom`` is not empty and ``out`` is a checkout's ``reports/``.
+    """
+    from replication.errors import UsageError
+
+    if custom and checkout_readme(out) is not None:
+        raise UsageError(
+            f"--output-dir {out} is this checkout's committed reports, which hold the paper's settings' "
+            f"results (and the README's headline numbers); a run with {' and '.join(custom)} would replace "
+            "them: name another directory"
+        )
 
 
 def finish_reports(out: Path) -> list[Path]:

@@ -23,6 +23,7 @@ from replication.cli.outputs import (
     DEFAULT_DIR,
     QUICK_DIR,
     TABLE1_SUBDIRS,
+    check_not_committed,
     checkout_readme,
     finish_reports,
     planned_output_dir,
@@ -161,6 +162,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
     if not found.is_dir:  # first: the refusal below speaks of the committed page as of a file that exists
         what = "is a file" if found.exists else "does not exist"
         raise ReportDataError(f"reports directory {out} {what}: run `replication reproduce` first")
+    if commits != DEFAULT_COMMITS and args.output_dir:
+        check_not_committed(out, [f"--commits {commits}"])
     if commits != DEFAULT_COMMITS and not args.output_dir:  # reports/ is written with its settings only
         raise UsageError(
             f"--commits {commits} would redraw the committed {out / 'performance.md'}, which shows "
@@ -368,7 +371,8 @@ def register(sub: argparse._SubParsersAction) -> None:
             "--output-dir",
             type=directory_name,
             metavar="DIR",
-            help=f"where reports, figures and data go (default {DEFAULT_DIR}/, or {QUICK_DIR}/ with --quick)",
+            help=f"where reports, figures and data go (default {DEFAULT_DIR}/, or {QUICK_DIR}/ with --quick; "
+            f"a --quick run never writes a checkout's committed {DEFAULT_DIR}/)",
         )
         p.add_argument(
             "--workers",

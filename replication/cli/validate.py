@@ -29,8 +29,9 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     from replication.cli.outputs import finish_reports, planned_output_dir
 
     _check_options(args)
-    _check_custom_run(args)
-    out = planned_output_dir(args, ("jet_validation.md", "index.md"))
+    custom = _custom_settings(args)
+    _check_custom_run(args, custom)
+    out = planned_output_dir(args, ("jet_validation.md", "index.md"), custom=custom)
     start = time.perf_counter()
     results, path = run_validation_report(args, out)
     table = results.surfaces
@@ -82,30 +83,36 @@ def _check_options(args: argparse.Namespace) -> None:
         check_writable_dir(path, "--ga-run-dir")
 
 
-def _check_custom_run(args: argparse.Namespace) -> None:
-    """Refuse to let a study with other settings replace the committed one by default.
-
-    ``reports/jet_validation.md`` is the study at its own settings; ``--timeout`` or another
-    GA's winners (``--ga-run-dir``) can give another study, which goes where ``--output-dir``
-    says (``--output-dir reports`` replaces the committed one knowingly).
-    """
-    from replication.cli.outputs import DEFAULT_DIR
-    from replication.errors import UsageError
+def _custom_settings(args: argparse.Namespace) -> list[str]:
+    """The options besides ``--quick`` that can make the study another than the committed one."""
     from replication.experiments.jet_validation import ValidationConfig
 
-    if args.output_dir is not None or args.quick:
-        return
     custom = []
     simulates = not args.from_cache  # --from-cache simulates nothing: a timeout has no effect
     if simulates and args.timeout is not None and args.timeout != ValidationConfig().timeout:
         custom.append(f"--timeout {args.timeout:g}")
     if args.ga_run_dir is not None:
         custom.append(f"--ga-run-dir {args.ga_run_dir}")
-    if custom:
-        raise UsageError(
-            f"with {' and '.join(custom)} the study may differ from the committed one in {DEFAULT_DIR}/: "
-            f"name a report directory with --output-dir (--output-dir {DEFAULT_DIR} to replace it)"
-        )
+    return custom
+
+
+def _check_custom_run(args: argparse.Namespace, custom: list[str]) -> None:
+    """Refuse to let a study with other settings replace the committed one by default.
+
+    ``reports/jet_validation.md`` is the study at its own settings; ``--timeout`` or another
+    GA's winners (``--ga-run-dir``) can give another study, which goes where ``--output-dir``
+    says, and never into a checkout's committed ``reports/``
+    (:func:`replication.cli.outputs.check_not_committed`).
+    """
+    from replication.cli.outputs import DEFAULT_DIR
+    from replication.errors import UsageError
+
+    if args.output_dir is not None or args.quick or not custom:
+        return
+    raise UsageError(
+        f"with {' and '.join(custom)} the study may differ from the committed one in {DEFAULT_DIR}/: "
+        "name a report directory with --output-dir"
+    )
 
 
 def register(sub: argparse._SubParsersAction) -> None:
