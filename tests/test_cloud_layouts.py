@@ -88,7 +88,7 @@ def test_fields_that_name_no_axis_are_read_in_their_order_with_a_warning(tmp_pat
             (4,),
             r"name the axis x more than once: name the fields",
         ),
-        ([("a", "f8"), ("x", "f8"), ("b", "f8")], (4,), r"name x as column 2 but not the other axes"),
+        ([("a", "f8"), ("x", "f8"), ("b", "f8")], (4,), r"name x as field 2 but not the other axes"),
         ([("x", "f8"), ("y", "f8"), ("z", "f8")], (2, 2), r"one dimension .*got shape \(2, 2\)"),
     ],
 )
@@ -97,6 +97,58 @@ def test_structured_arrays_that_are_not_a_cloud_are_refused_by_name(tmp_path, dt
     with pytest.raises(CloudFileError, match=match) as caught:
         load_cloud(tmp_path / "r.npy")
     assert str(caught.value).startswith(str(tmp_path / "r.npy")) and "\n" not in str(caught.value)
+
+
+def test_a_structured_array_with_non_ascii_field_names_is_read_and_its_size_checked(tmp_path):
+    """numpy saves non-ASCII field names in .npy format 3.0, whose header was not size-checked."""
+    records = _records(CLOUD, ["x", "y", "ζ"])
+    with pytest.warns(UserWarning, match="format 3.0"):  # numpy's own note on the format
+        np.save(tmp_path / "r.npy", records)
+    assert (tmp_path / "r.npy").read_bytes()[6:8] == b"\x03\x00"
+    np.testing.assert_array_equal(load_cloud(tmp_path / "r.npy"), CLOUD)  # "ζ" names no axis: z
+    data = (tmp_path / "r.npy").read_bytes()
+    size = int.from_bytes(data[8:12], "little")
+    header = data[12 : 12 + size].replace(b"(4,)", b"(100000000000,)")
+    (tmp_path / "huge.npy").write_bytes(
+        data[:8] + len(header).to_bytes(4, "little") + header + data[12 + size :]
+    )
+    # was: "not enough memory: Unable to allocate 2.18 TiB", where a 2.0 header had this error
+    with pytest.raises(
+        CloudFileError, match=r"truncated or damaged: its header announces shape \(100000000000,\)"
+    ):
+        load_cloud(tmp_path / "huge.npy")
+    (tmp_path / "bad.npy").write_bytes(data[:8] + (9).to_bytes(4, "little") + b"{'descr':")
+    with pytest.raises(CloudFileError, match=r"damaged header"):
+        load_cloud(tmp_path / "bad.npy")
+
+
+def test_pandas_row_index_is_never_taken_for_an_axis(tmp_path):
+    """A frame of two axes saved with its index: the index was read as the third axis."""
+    import pandas as pd
+
+    frame = pd.DataFrame({"x": CLOUD[:, 0], "y": CLOUD[:, 1]})
+    np.save(tmp_path / "r.npy", frame.to_records())  # fields index, x, y
+    frame.to_csv(tmp_path / "c.csv")  # header ",x,y"
+    (tmp_path / "u.csv").write_text("Unnamed: 0,y,x\n0,1,2\n1,3,4\n2,5,7\n")
+    expected = {
+        "r.npy": r"the fields index, x, y name two axes, and its field 1 \('index'\) is pandas' row index, "
+        r"not the third axis: save the frame without its index \(to_records\(index=False\)\), or name the "
+        r"field z",
+        "c.csv": r"its column 1 \(''\) is pandas' row index, .*\(to_csv\(index=False\)\), or name the "
+        r"column z",
+        "u.csv": r"its column 1 \('Unnamed: 0'\) is pandas' row index",
+    }
+    for name, match in expected.items():
+        with pytest.raises(CloudFileError, match=match):
+            load_cloud(tmp_path / name)
+    np.save(tmp_path / "all.npy", pd.DataFrame(CLOUD, columns=list("xyz")).to_records())
+    with pytest.raises(
+        CloudFileError, match=r"4 field\(s\) .* \(DataFrame.to_records\(index=False\) leaves out"
+    ):
+        load_cloud(tmp_path / "all.npy")
+    frame["z"] = CLOUD[:, 2]
+    np.save(tmp_path / "ok.npy", frame.to_records(index=False))
+    np.testing.assert_array_equal(load_cloud(tmp_path / "ok.npy"), CLOUD)
 
 
 def test_a_structured_cloud_is_checked_like_a_plain_one(tmp_path):
@@ -118,10 +170,27 @@ def test_rows_that_end_in_a_comma_have_three_columns(tmp_path, header, ending):
     np.testing.assert_array_equal(load_cloud(tmp_path / "spaced.csv"), CLOUD)
 
 
+@pytest.mark.parametrize("closing", [",", ""])
+def test_a_header_ending_in_a_comma_still_names_the_columns(tmp_path, closing):
+    # was: "z,x,y," made four names, so the axis order was not read and the file was read in
+    # file order, its axes swapped without a word
+    rows = "".join(f"{z},{x},{y}{closing}\n" for x, y, z in CLOUD)
+    (tmp_path / "c.csv").write_text("z,x,y,\n" + rows)
+    with pytest.warns(CloudFileWarning, match=r"the header z, x, y names the columns in another order"):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "c.csv"), CLOUD)
+    (tmp_path / "labels.csv").write_text("east,north,height,\n" + rows)
+    with pytest.warns(CloudFileWarning, match=r"the header east, north, height names none"):
+        load_cloud(tmp_path / "labels.csv")
+
+
 @pytest.mark.parametrize(
     ("text", "match"),
     [
         ("x,y,z,\n0,1,2,\n1,0,3,\n1,1,,\n", r"line 4, column 3: '' is not a number"),  # a missing z
+        (
+            "0,1,2,\n1,0,3,\n1,1,4,,\n",
+            r"line 3 has 4 column\(s\), expected 3 \(x, y, z\): '1,1,4,,'",
+        ),  # as written
         ("0,1,2,\n1,0,3,\n1,1,4,5,\n", r"line 3 has 4 column\(s\), expected 3"),  # a fourth value
         ("0,1,5\n1,0,3,\n1,1,4\n", r"line 2 has 4 column\(s\), expected 3"),  # the first row has none
     ],

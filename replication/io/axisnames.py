@@ -32,6 +32,18 @@ def axis_name(token: str) -> str:
     return last if prefix and last in ("x", "y", "z") else word
 
 
+def _verb(what: str) -> str:
+    return "names" if what == "header" else "name"  # the header names, the fields name
+
+
+def _row_index(token: str) -> bool:
+    """Whether a column name is one pandas gives a frame's row index: none (``to_csv``
+    writes ``,x,y``), ``index`` (``to_records``), ``Unnamed: 0`` (``read_csv`` of such a
+    file) or ``level_0``."""
+    name = token.strip().strip("\"'").lower()
+    return name in ("", "index", "level_0") or name.startswith("unnamed:")
+
+
 def axis_order(path: Path, tokens: list[str], *, what: str = "header") -> list[int] | None:
     """The column order that puts the named x, y and z first to last, when the names say it.
 
@@ -66,15 +78,25 @@ def axis_order(path: Path, tokens: list[str], *, what: str = "header") -> list[i
         return None  # no axis named, or each in its own column: their order
     if distinct and len(named) >= 2:  # the column not named is the axis not named
         unnamed = next((k for k in range(3) if names[k] not in named), -1)  # -1: all three named
+        if unnamed >= 0 and _row_index(tokens[unnamed]):
+            column = "column" if what == "header" else "field"
+            saved = "to_csv(index=False)" if what == "header" else "to_records(index=False)"
+            raise CloudFileError(
+                f"{path}: the {what} {quoted_names(tokens)} {_verb(what)} two axes, "
+                f"and its {column} {unnamed + 1} ({tokens[unnamed].strip()!r}) is pandas' row index, not the "
+                f"third axis: save the frame without its index ({saved}), or name the {column} "
+                f"{'xyz'[3 - sum('xyz'.index(n) for n in named)]}"
+            )
         order = [names.index(axis) if axis in names else unnamed for axis in ("x", "y", "z")]
         return None if order == [0, 1, 2] else order
-    verb = "names" if what == "header" else "name"
+    verb = _verb(what)
+    column = "column" if what == "header" else "field"
     raise CloudFileError(
         f"{path}: the {what} {quoted_names(tokens)} {verb} "
         + (
             f"the axis {', '.join(sorted(set(n for n in named if named.count(n) > 1)))} more than once"
             if len(set(named)) != len(named)
-            else f"{named[0]} as column {names.index(named[0]) + 1} but not the other axes"
+            else f"{named[0]} as {column} {names.index(named[0]) + 1} but not the other axes"
         )
         + f": name the {'columns' if what == 'header' else 'fields'} x, y and z (in any order)"
         + (", or give no header" if what == "header" else "")

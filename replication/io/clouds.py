@@ -111,13 +111,17 @@ def _split(line: str, comma: bool) -> list[str]:
     return [t.strip() for t in line.split(",")] if comma else line.split()
 
 
-def _diagnose(path: Path, lines: list[tuple[int, str]], comma: bool) -> CloudFileError:
-    """Find the first malformed data line (called only when fast parsing failed)."""
+def _diagnose(
+    path: Path, lines: list[tuple[int, str]], comma: bool, written: dict[int, str] | None = None
+) -> CloudFileError:
+    """Find the first malformed data line (called only when fast parsing failed); ``written``
+    holds the lines as the file has them, where ``lines`` were changed (a closing comma cut)."""
     for number, line in lines:
         tokens = _split(line, comma)
         if len(tokens) != 3:
+            quoted = (written or {}).get(number, line).strip()
             return CloudFileError(
-                f"{path}: line {number} has {len(tokens)} column(s), expected 3 (x, y, z): {line.strip()!r}"
+                f"{path}: line {number} has {len(tokens)} column(s), expected 3 (x, y, z): {quoted!r}"
             )
         for column, token in enumerate(tokens, start=1):
             if not _is_float64_text(_fortran(token)):
@@ -166,15 +170,25 @@ def _header_tokens(text: str) -> list[str]:
     text = text.strip().removeprefix("%")
     if "," in text:
         try:
-            return [name.strip() for name in next(csv.reader([text], skipinitialspace=True, strict=True))]
+            names = [name.strip() for name in next(csv.reader([text], skipinitialspace=True, strict=True))]
         except csv.Error:  # unbalanced quotes: the names between the commas, quotes and all
-            return _split(text, True)
+            names = _split(text, True)
+        return _without_closing_separator(names)
     bare = _UNIT.sub("", text)  # a ';' inside a unit ('z [m; NAP]') separates nothing
     if "\t" in bare:  # tabs separate names that may hold spaces ("Easting m<TAB>Northing m")
         return [name.strip() for name in bare.split("\t") if name.strip()]
     if ";" in bare:
-        return [name.strip() for name in bare.split(";")]
+        return _without_closing_separator([name.strip() for name in bare.split(";")])
     return bare.split()
+
+
+def _without_closing_separator(names: list[str]) -> list[str]:
+    """The names of a header whose line ends in its separator ("z,x,y,"): the empty "names"
+    after it are none (they made four names, so the header's axis order was not read and a
+    file headed "z,x,y," was read in file order, its axes swapped without a word)."""
+    while names and not names[-1]:
+        names.pop()
+    return names
 
 
 #: A unit in brackets or parentheses after a name, with the white space before it.
@@ -242,9 +256,11 @@ def _load_text(path: Path) -> np.ndarray:
         # first point" says the line is a point
         raise _column_number_header(path, numbered[0][0], numbered[0][1])
     comma = "," in numbered[0][1]
+    written = None
     if comma and numbered[0][1].rstrip().endswith(","):
         # a comma closing each line ("1,2,3,", as some spreadsheets and loggers write rows) ends
         # the row; it opens no fourth column (such files were refused as having 4 columns)
+        written = dict(numbered)  # for messages: the lines as the file has them
         numbered = [(i, data.rstrip().removesuffix(",")) for i, data in numbered]
     body = "\n".join(line for _, line in numbered)
     if "d" in body or "D" in body:  # Fortran exponents (one scan of the text, not one per line)
@@ -252,9 +268,9 @@ def _load_text(path: Path) -> np.ndarray:
     try:
         data = np.loadtxt(io.StringIO(body), delimiter="," if comma else None, ndmin=2, dtype=np.float64)
     except ValueError:
-        raise _diagnose(path, numbered, comma) from None
+        raise _diagnose(path, numbered, comma, written) from None
     if data.shape[1] != 3:
-        raise _diagnose(path, numbered, comma)
+        raise _diagnose(path, numbered, comma, written)
     bad = np.flatnonzero(~np.isfinite(data).all(axis=1))
     if bad.size:
         for i in bad:  # a number too large for float64 ("1e400") reads as infinite: name it

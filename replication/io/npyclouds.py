@@ -12,6 +12,7 @@ numpy allocates the array.
 
 from __future__ import annotations
 
+import ast
 import io
 import math
 import os
@@ -38,9 +39,11 @@ def _check_npy_size(path: Path, handle: io.BufferedReader) -> None:
             shape, _, dtype = np.lib.format.read_array_header_1_0(handle)
         elif version == (2, 0):
             shape, _, dtype = np.lib.format.read_array_header_2_0(handle)
-        else:  # 3.0 only adds UTF-8 field names of structured arrays
+        elif version == (3, 0):  # as 2.0, in UTF-8: numpy writes it for non-ASCII field names
+            shape, dtype = _header_3_0(handle)
+        else:
             return  # numpy's own reading says what it makes of it
-    except ValueError as exc:
+    except (ValueError, SyntaxError, KeyError, TypeError, UnicodeDecodeError) as exc:
         raise CloudFileError(f"{path}: not a readable .npy array (damaged header: {exc})") from exc
     if dtype.hasobject:  # pickled: no fixed size, and refused as such by the reading
         return
@@ -51,6 +54,21 @@ def _check_npy_size(path: Path, handle: io.BufferedReader) -> None:
             f"{path}: not a readable .npy array (truncated or damaged: its header announces shape "
             f"{tuple(shape)} of {dtype}, {need:,} bytes of data, but the file holds {held:,})"
         )
+
+
+#: The longest version 3.0 header parsed (numpy's own limit is 10,000 bytes).
+_MAX_HEADER = 1_000_000
+
+
+def _header_3_0(handle: io.BufferedReader) -> tuple[tuple[int, ...], np.dtype]:
+    """The shape and dtype of a version 3.0 header: a little-endian uint32 length, then a
+    Python dict literal in UTF-8 (numpy's own reader of it is private)."""
+    length = int.from_bytes(handle.read(4), "little")
+    if length > _MAX_HEADER:  # numpy itself refuses headers over 10,000 bytes unless told otherwise
+        raise ValueError(f"a header of {length:,} bytes")
+    header = ast.literal_eval(handle.read(length).decode("utf-8"))
+    shape = tuple(int(k) for k in header["shape"])
+    return shape, np.lib.format.descr_to_dtype(header["descr"])
 
 
 def _read(path: Path) -> np.ndarray:
@@ -85,7 +103,8 @@ def _unstructured(path: Path, data: np.ndarray) -> np.ndarray:
     nested = [name for name, field in zip(names, fields) if field.subdtype is not None or field.names]
     if nested:
         field = data.dtype.fields[nested[0]][0]
-        held = f"the fields {', '.join(field.names)}" if field.names else f"{math.prod(field.shape)} values"
+        count = math.prod(field.shape)
+        held = f"the fields {', '.join(field.names)}" if field.names else f"{count} value{'s' * (count != 1)}"
         raise CloudFileError(
             f"{path}: the field {nested[0]} of the structured array holds {held} per record; save the "
             f"coordinates as an (n, 3) array (np.save(file, data[{nested[0]!r}]) when they are that "
@@ -102,6 +121,7 @@ def _unstructured(path: Path, data: np.ndarray) -> np.ndarray:
         raise CloudFileError(
             f"{path}: a structured array of {len(names)} field(s) ({listed}); a point cloud has 3 "
             "(x, y, z): save the three coordinate fields only"
+            + (" (DataFrame.to_records(index=False) leaves out the row index)" if "index" in names else "")
         )
     if data.ndim != 1:
         raise CloudFileError(
