@@ -990,8 +990,8 @@ def test_a_dangling_link_is_not_just_not_found(tmp_path, capsys, monkeypatch):
 @pytest.mark.parametrize(
     ("shape", "said"),
     [
-        ("points", "the surface must consist of faces only; it holds 10 vertex cell(s)"),
-        ("lines", "the surface must consist of faces only; it holds 1 line(s), 2 polygon(s) of 4 corners"),
+        ("points", "the surface must consist of faces of three or more corners; it holds 10 vertex cell(s)"),
+        ("lines", "consist of faces of three or more corners; it holds 1 line(s), 2 polygon(s) of 4 corners"),
         (
             "warped",
             "4 of its 4 polygon(s) of more than 3 corners are not flat (cell 0, counted from 0, bends",

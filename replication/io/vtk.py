@@ -258,33 +258,45 @@ def _cells(mesh: Any) -> str:
     return ", ".join(kinds) or "no faces"
 
 
-#: How far a polygon's corners may lie from its plane, relative to its size, for it to be flat:
-#: float rounding of a flat polygon's coordinates is about 1e-16 of its size.
-FLAT_POLYGON = 1e-9
+#: How far a polygon's corners may lie from its plane, relative to its size, for it to count as
+#: flat: cut either way, such a polygon gives surfaces that differ by less than a millionth of
+#: its size (a quad written with 6 significant digits bends by about 1e-6 of it).
+FLAT_POLYGON = 1e-6
+#: ... or, for coordinates far from the origin, this many units of the points' own precision
+#: (float32 points carry about 1e-7 of their magnitude, float64 2e-16).
+FLAT_ROUNDING = 64
 
 
 def _bends(
     points: np.ndarray, offsets: np.ndarray, connectivity: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Each polygon's largest distance of a corner from its plane, over its size (0 for a flat one).
 
-    The plane is the one through the corners' centroid with Newell's normal, which is the
-    normal of a flat polygon of any shape (convex or not) and the best plane of a warped quad.
-    Returns the cells of more than three corners and their bends.
+    The plane is the one through the corners' centroid with Newell's normal (computed from the
+    corners less their centroid, so that coordinates far from the origin do not cancel), which
+    is the normal of a flat polygon of any shape (convex or not) and the best plane of a warped
+    quad. Returns the cells of more than three corners, their bends, the largest coordinate
+    magnitude of each over its size (what the points' rounding is relative to), and the area
+    each encloses (half the length of Newell's normal).
     """
     sizes = np.diff(offsets)
     cells = np.flatnonzero(sizes > 3)
-    bends = np.zeros(cells.size)
+    bends, magnitudes, areas = np.zeros(cells.size), np.zeros(cells.size), np.zeros(cells.size)
     for corners in np.unique(sizes[cells]):  # one vectorised pass per number of corners
-        chosen = cells[sizes[cells] == corners]
-        p = points[connectivity[offsets[chosen][:, None] + np.arange(corners)]]  # (m, corners, 3)
-        normal = np.cross(p, np.roll(p, -1, axis=1)).sum(axis=1)
+        which = sizes[cells] == corners
+        p = points[connectivity[offsets[cells[which]][:, None] + np.arange(corners)]]  # (m, corners, 3)
+        centred = p - p.mean(axis=1, keepdims=True)
+        normal = np.cross(centred, np.roll(centred, -1, axis=1)).sum(axis=1)
         length = np.linalg.norm(normal, axis=1)
+        areas[which] = length / 2  # the area the corners enclose (lobes of a bow tie cancel)
         unit = np.divide(normal, length[:, None], out=np.zeros_like(normal), where=length[:, None] > 0)
-        away = np.abs(np.einsum("mkd,md->mk", p - p.mean(axis=1, keepdims=True), unit)).max(axis=1)
+        away = np.abs(np.einsum("mkd,md->mk", centred, unit)).max(axis=1)
         extent = np.linalg.norm(p.max(axis=1) - p.min(axis=1), axis=1)
-        bends[sizes[cells] == corners] = np.divide(away, extent, out=np.zeros_like(away), where=extent > 0)
-    return cells, bends
+        bends[which] = np.divide(away, extent, out=np.zeros_like(away), where=extent > 0)
+        magnitudes[which] = np.divide(
+            np.abs(p).max(axis=(1, 2)), extent, out=np.zeros_like(away), where=extent > 0
+        )
+    return cells, bends, magnitudes, areas
 
 
 def _as_triangles(path: Path, mesh: Any) -> Any:
@@ -293,17 +305,23 @@ def _as_triangles(path: Path, mesh: Any) -> Any:
     A strip is a list of triangles, and a flat polygon is the same surface however it is cut,
     so both are read. A polygon whose corners do not lie in one plane (a warped quad) has no
     one surface: which diagonal cuts it decides where the water goes, so it is refused, as
-    are vertex and line cells (points and curves, not faces).
+    are vertex and line cells (points and curves, not faces) and polygons of fewer than three
+    corners. Flat means within :data:`FLAT_POLYGON` of the polygon's size, or within
+    :data:`FLAT_ROUNDING` units of the points' precision (float32 or float64).
     """
     from vtkmodules.util.numpy_support import vtk_to_numpy
 
-    if mesh.n_verts or mesh.n_lines:
-        raise CloudFileError(f"{path}: the surface must consist of faces only; it holds {_cells(mesh)}")
     polys = mesh.GetPolys()
     offsets = vtk_to_numpy(polys.GetOffsetsArray()).astype(np.int64)
+    if mesh.n_verts or mesh.n_lines or (np.diff(offsets) < 3).any():
+        raise CloudFileError(
+            f"{path}: the surface must consist of faces of three or more corners; it holds {_cells(mesh)}"
+        )
     connectivity = vtk_to_numpy(polys.GetConnectivityArray()).astype(np.int64)
-    cells, bends = _bends(np.asarray(mesh.points, dtype=np.float64), offsets, connectivity)
-    warped = bends > FLAT_POLYGON
+    raw = np.asarray(mesh.points)
+    eps = float(np.finfo(raw.dtype).eps) if raw.dtype.kind == "f" else float(np.finfo(np.float64).eps)
+    cells, bends, magnitudes, areas = _bends(np.asarray(raw, dtype=np.float64), offsets, connectivity)
+    warped = bends > np.maximum(FLAT_POLYGON, FLAT_ROUNDING * eps * magnitudes)
     if warped.any():
         first = int(np.argmax(warped))
         raise CloudFileError(
@@ -312,7 +330,42 @@ def _as_triangles(path: Path, mesh: Any) -> Any:
             "surface between their corners depends on how they are cut into triangles: triangulate the "
             "mesh as you mean it (pyvista: mesh.triangulate())"
         )
-    return mesh.triangulate()
+    cut = mesh.triangulate()
+    strips = vtk_to_numpy(mesh.GetStrips().GetOffsetsArray()).astype(np.int64)
+    made = int((np.diff(offsets) - 2).sum() + (np.diff(strips) - 2).sum())  # n - 2 per face or strip
+    if cut.n_cells != made or not cut.is_all_triangles:  # VTK drops a polygon it cannot cut
+        raise CloudFileError(
+            f"{path}: its faces make {made} triangle(s), but only {cut.n_cells} could be cut from them: a "
+            "polygon crosses itself or repeats its corners; triangulate the mesh as you mean it (pyvista: "
+            "mesh.triangulate())"
+        )
+    _check_cut_areas(path, cut, np.diff(offsets), cells, areas)
+    return cut
+
+
+def _check_cut_areas(path: Path, cut: Any, sizes: np.ndarray, cells: np.ndarray, areas: np.ndarray) -> None:
+    """Refuse polygons whose triangles cover another area than the polygon encloses.
+
+    VTK cuts the polygons in their order, ``n - 2`` triangles each, before the strips; a
+    polygon that crosses itself (a bow tie) encloses less than its triangles cover, and its
+    triangles overlap or turn clockwise, which the force model would blame on a triangle the
+    file never held.
+    """
+    made = int((sizes - 2).sum())
+    tri = np.asarray(cut.faces, dtype=np.int64).reshape(-1, 4)[:made, 1:]
+    p = np.asarray(cut.points, dtype=np.float64)
+    a, b, c = p[tri[:, 0]], p[tri[:, 1]], p[tri[:, 2]]
+    cover = np.linalg.norm(np.cross(b - a, c - a), axis=1) / 2
+    covered = np.bincount(np.repeat(np.arange(sizes.size), sizes - 2), weights=cover, minlength=sizes.size)
+    wrong = np.abs(covered[cells] - areas) > FLAT_POLYGON * covered[cells]
+    if wrong.any():
+        first = int(np.argmax(wrong))
+        raise CloudFileError(
+            f"{path}: {int(wrong.sum())} polygon(s) cross themselves (cell {int(cells[first])}, counted "
+            f"from 0, encloses an area of {areas[first]:.3g} but its triangles cover "
+            f"{covered[cells[first]]:.3g}); "
+            "triangulate the mesh as you mean it (pyvista: mesh.triangulate())"
+        )
 
 
 def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
@@ -358,7 +411,7 @@ def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
         raise CloudFileError(f"{path}: no surface (points and triangles) in the file{why}")
     if mesh.n_cells == 0:
         raise CloudFileError(f"{path}: points but no triangles in the file (is it cut short?){why}")
-    if not mesh.is_all_triangles:
+    if mesh.n_strips or not mesh.is_all_triangles:  # (pyvista calls triangles and strips "all triangles")
         mesh = _as_triangles(path, mesh)
     points = np.asarray(mesh.points, dtype=np.float64)
     triangles = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 4)[:, 1:]
