@@ -61,6 +61,11 @@ def _checkout(root):
             "generations 2 (paper: 50) and runs 1 (paper: 3)",
         ),
         (["casestudy", "--rescore", "sph"], "--rescore sph"),
+        # the quick settings given one by one are named as given
+        (
+            ["casestudy", "--population", "12", "--generations", "6"],
+            "population 12 (paper: 48) and generations 6 (paper: 50)",
+        ),
         (["validate-jet", "--timeout", "1"], "--timeout 1"),
         (["validate-jet", "--timeout", "1", "--ga-run-dir", "ga"], "--timeout 1 and --ga-run-dir ga"),
         (["report", "--performance", "--commits", "3"], "--commits 3"),
@@ -78,7 +83,7 @@ def test_a_run_with_other_settings_never_writes_a_checkout_s_committed_reports(
     before = sorted(p.name for p in tmp_path.iterdir())
     assert main([*command, "--output-dir", "reports"]) == 2
     err = capsys.readouterr().err
-    assert "--output-dir reports is this checkout's committed reports" in err
+    assert "--output-dir reports is a checkout's committed reports" in err
     assert f"a run with {named} would replace them: name another directory" in err
     assert len(err.splitlines()) == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == before  # refused before any work
@@ -99,6 +104,21 @@ def test_the_paper_s_settings_and_other_directories_are_not_refused(tmp_path, mo
     check_not_committed(tmp_path / "elsewhere" / "reports", ["--quick"])  # no checkout beside it
     with pytest.raises(Exception, match="committed reports"):  # the same directory by another name
         check_not_committed(tmp_path / "elsewhere" / ".." / "reports", ["--quick"])
+    # a checkout whose reports/ is a symbolic link to a store elsewhere: it was not recognised
+    (tmp_path / "store").mkdir()
+    (tmp_path / "linked").mkdir()
+    _checkout(tmp_path / "linked")
+    (tmp_path / "linked" / "reports").symlink_to(tmp_path / "store", target_is_directory=True)
+    with pytest.raises(Exception, match="committed reports"):
+        check_not_committed(tmp_path / "linked" / "reports", ["--quick"])
+    check_not_committed(tmp_path / "store", ["--quick"])  # the store by its own name is not reports/
+    # inside the committed reports: `table1 --quick --output-dir reports/figures` wrote its report there
+    (tmp_path / "reports" / "figures").mkdir(parents=True)
+    for inside in ("reports/figures", "reports/figures/new", "linked/reports/data"):
+        with pytest.raises(
+            Exception, match=f"--output-dir {tmp_path / inside} is inside a checkout's committed"
+        ):
+            check_not_committed(tmp_path / inside, ["--quick"])
 
 
 def test_resuming_keeps_the_run_s_own_destination(tmp_path, monkeypatch):

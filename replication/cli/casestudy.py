@@ -141,11 +141,12 @@ def _default_report_dir(config: Any, run_dir: Path) -> tuple[Path, str]:
     )
 
 
-def _custom_settings(config: Any, sph_option: str | None) -> list[str]:
-    """What makes a run's report another than the committed paper report, in words."""
-    from replication.experiments.casestudy import differences_from_paper, quick_ga_config
+def _custom_settings(config: Any, quick: bool, sph_option: str | None) -> list[str]:
+    """What makes a run's report another than the committed paper report, in words: the option
+    ``--quick`` when it was given, else the settings that differ from the paper's."""
+    from replication.experiments.casestudy import differences_from_paper
 
-    custom = ["--quick"] if config == quick_ga_config() else differences_from_paper(config.as_dict())
+    custom = ["--quick"] if quick else differences_from_paper(config.as_dict())
     return [*custom, *([sph_option] if sph_option else [])]
 
 
@@ -241,7 +242,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
         )
     out = Path(args.output_dir) if args.output_dir else default_out
     if args.output_dir and default_out != Path(DEFAULT_DIR):
-        check_not_committed(out, _custom_settings(config, sph_option))
+        check_not_committed(out, _custom_settings(config, bool(args.quick), sph_option))
     what = "--output-dir" if args.output_dir else "the reports directory"
     check_report_dir(out, what)
     check_pages(out, what, ("casestudy.md", "index.md"))

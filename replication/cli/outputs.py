@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import re
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -76,18 +77,21 @@ def checkout_readme(out: str | Path) -> Path | None:
     """
     from replication.report.index import END, START
 
-    out = Path(out).resolve()
-    root = out.parent
-    if out.name != DEFAULT_DIR:
-        return None
-    readme, project = root / "README.md", root / "pyproject.toml"
-    try:
-        if not re.search(r'(?m)^name\s*=\s*"replication"\s*$', project.read_text(encoding="utf-8")):
-            return None
-        text = readme.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError):
-        return None
-    return readme if START in text and END in text else None
+    # as named (a symbolic link reports -> elsewhere is the checkout's reports/ too) and as resolved
+    spellings = dict.fromkeys([Path(os.path.abspath(out)), Path(out).resolve()])
+    for candidate in spellings:
+        if candidate.name != DEFAULT_DIR:
+            continue
+        readme, project = candidate.parent / "README.md", candidate.parent / "pyproject.toml"
+        try:
+            if not re.search(r'(?m)^name\s*=\s*"replication"\s*$', project.read_text(encoding="utf-8")):
+                continue
+            text = readme.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            continue
+        if START in text and END in text:
+            return readme
+    return None
 
 
 def check_not_committed(out: str | Path, custom: Sequence[str]) -> None:
@@ -102,15 +106,20 @@ def check_not_committed(out: str | Path, custom: Sequence[str]) -> None:
     Raises
     ------
     UsageError
-        ``custom`` is not empty and ``out`` is a checkout's ``reports/``.
+        ``custom`` is not empty and ``out`` is a checkout's ``reports/`` or lies inside it.
     """
     from replication.errors import UsageError
 
-    if custom and checkout_readme(out) is not None:
+    if not custom:
+        return
+    named, resolved = Path(os.path.abspath(out)), Path(out).resolve()
+    inside = [*named.parents, *resolved.parents]  # reports/figures of a checkout is its reports too
+    within = checkout_readme(out) is None
+    if not within or any(checkout_readme(p) is not None for p in inside):
         raise UsageError(
-            f"--output-dir {out} is this checkout's committed reports, which hold the paper's settings' "
-            f"results (and the README's headline numbers); a run with {' and '.join(custom)} would replace "
-            "them: name another directory"
+            f"--output-dir {out} is {'inside ' * within}a checkout's committed reports, which hold the "
+            f"paper's settings' results (and the README's headline numbers); a run with "
+            f"{' and '.join(custom)} would replace them: name another directory"
         )
 
 
