@@ -297,6 +297,9 @@ def test_an_earlier_simulations_run_directory_is_reused(capsys, bucket_csv, tmp_
         (["--diameter", "0"], "argument --diameter: expected a finite positive diameter in mm, got '0'"),
         (["--diameter", "-18"], "argument --diameter: expected a finite positive diameter in mm, got '-18'"),
         (["--diameter", "inf"], "argument --diameter: expected a finite positive diameter in mm, got 'inf'"),
+        # Python reads "1_8" as 18
+        (["--diameter", "1_8"], "argument --diameter: expected a finite positive diameter in mm, got '1_8'"),
+        (["--velocity", "4_34"], "argument --velocity: expected a positive number, got '4_34'"),
         (["--velocity", "-4"], "argument --velocity: expected a finite positive number, got '-4'"),
         (["--density", "inf"], "argument --density: expected a finite positive number, got 'inf'"),
         (["--domain", "36", "0", "13"], "argument --domain: expected a finite positive number, got '0'"),
@@ -311,6 +314,16 @@ def test_jet_options_are_refused_as_given_in_millimetres(capsys, bucket_csv, opt
         main(["force", str(bucket_csv), *options])
     err = capsys.readouterr().err
     assert exc.value.code == 2 and match in err and err.count("\n") == 1, err
+
+
+@pytest.mark.parametrize("diameter", ["1e63", "1e-57"])
+def test_the_diameters_the_option_names_as_bounds_are_accepted(capsys, bucket_csv, diameter):
+    # was: "expected a diameter of at most 1e+63 mm ..., got '1e63'" (1000 * 1e60 is 9.999999999999999e62,
+    # and 1e63 mm is 1.0000000000000001e60 m, past the model's bound)
+    from replication.cli import main
+
+    assert main(["force", str(bucket_csv), "--diameter", diameter, "--json"]) == 0
+    capsys.readouterr()
 
 
 def test_a_resolution_beyond_the_model_s_is_a_misused_option(capsys, bucket_csv):

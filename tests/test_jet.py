@@ -342,12 +342,18 @@ def test_bad_meshes():
 
 def test_surface_must_suit_the_jet():
     points, triangles = plate(y_min=-40)
-    with pytest.raises(InputError, match="y >= 0 .*; use the full jet for a surface on both sides$"):
+    with pytest.raises(
+        InputError,
+        match=r"y >= 0 .*; use the full jet for a surface on both sides \(full_jet=True; --full-jet on the "
+        r"command line\)$",
+    ):
         jet_force(points, triangles, UNBOUNDED)
     # wholly in y <= 0: was "use the full jet for a surface on both sides", which it is not on
     below = points * [1.0, -1.0, 1.0] - [0.0, 40.0, 0.0]
     with pytest.raises(
-        InputError, match=r"lies wholly in y <= 0: mirror it \(y -> -y\), or use the full jet$"
+        InputError,
+        match=r"lies wholly in y <= 0: mirror it \(y -> -y\), or use the full jet \(full_jet=True; "
+        r"--full-jet on",
     ):
         jet_force(below, triangles[:, ::-1], UNBOUNDED)
     with pytest.raises(InputError, match="outside the domain"):

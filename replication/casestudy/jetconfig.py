@@ -19,6 +19,8 @@ __all__ = ["DIAMETER_RANGE", "JetConfig"]
 #: Jet diameters (m) the model accepts: a plate scaled with the jet takes rho Q V from 1e-82 m to
 #: 1e90 m (tested), and the streamlets' centroids take the cube of radii; a wide margin is kept.
 DIAMETER_RANGE = (1e-60, 1e60)
+#: Relative slack of those bounds: a few roundings of a unit conversion.
+_ROUNDING = 1e-15
 
 
 @dataclass(frozen=True)
@@ -65,7 +67,9 @@ class JetConfig:
                 raise InputError(f"jet {name} must be positive and finite, got {name}={value!r}")
             object.__setattr__(self, name, float(value))
         low, high = DIAMETER_RANGE
-        if not low <= self.diameter <= high:  # the streamlets' centroids take its cube
+        # the streamlets' centroids take its cube; the bounds allow for the rounding of a
+        # diameter given in millimetres (1e63 mm is 1.0000000000000001e60 m)
+        if not low * (1 - _ROUNDING) <= self.diameter <= high * (1 + _ROUNDING):
             raise InputError(
                 f"jet diameter must lie in [{low:g}, {high:g}] m (SI units: the paper's jet is 0.018 m), "
                 f"got diameter={self.diameter!r}"

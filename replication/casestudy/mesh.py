@@ -45,9 +45,11 @@ def check_domain(
     if not config.full_jet and lo[1] < -tol:
         i = int(points[:, 1].argmin())
         advice = (
-            "the surface lies wholly in y <= 0: mirror it (y -> -y), or use the full jet"
+            "the surface lies wholly in y <= 0: mirror it (y -> -y), or use the full jet (full_jet=True; "
+            "--full-jet on the command line)"
             if hi[1] <= tol
-            else "use the full jet for a surface on both sides"
+            else "use the full jet for a surface on both sides (full_jet=True; --full-jet on the command "
+            "line)"
         )
         raise InputError(
             f"the half jet needs the surface on the side y >= 0 of its symmetry plane, but vertex "

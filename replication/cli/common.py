@@ -94,6 +94,9 @@ def worker_count(text: str) -> int:
 
 
 def _float(text: str, what: str) -> float:
+    # Python reads "1_8" as 18; the cloud files refuse it, and so does the command line
+    if "_" in text:
+        raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
     try:
         return float(text)
     except ValueError:

@@ -222,7 +222,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="INPUT",
         help="point cloud (.csv, .txt, .xyz, .npy; triangulated by ADT with depth z) or surface (.vtk, .vtp)",
     )
-    low, high = (1000.0 * limit for limit in DIAMETER_RANGE)  # the model's range, in millimetres
+    # the model's range, in millimetres as they are printed (1000 * 1e60 is 9.999999999999999e62)
+    low, high = (float(f"{1000.0 * limit:.15g}") for limit in DIAMETER_RANGE)
     p.add_argument(
         "--center",
         type=finite_float,
