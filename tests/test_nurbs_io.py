@@ -3,6 +3,8 @@
 import numpy as np
 import pytest
 from geomdl import exchange
+from hypothesis import given, settings
+from hypothesis import strategies as hst
 
 from replication.errors import CloudFileError, InputError
 from replication.io.nurbs import read_nurbs, smesh_text, write_nurbs
@@ -74,30 +76,71 @@ def test_errors(patch, tmp_path):
         write_nurbs(patch, tmp_path / "n.smesh", "iges")
 
 
-def test_a_full_disk_under_geomdl_s_json_writer_is_our_one_line_error(patch, tmp_path, monkeypatch):
-    """geomdl wraps the system's error in a GeomdlException naming the temporary file: the
-    command printed 'unexpected GeomdlException' with a name the user never gave."""
+def test_a_full_disk_under_the_json_writer_is_our_one_line_error(patch, tmp_path, monkeypatch):
+    """geomdl's writer wrapped the system's error in a GeomdlException naming the temporary
+    file (the command printed 'unexpected GeomdlException'); the writer is ours now, and a
+    full disk is the one-line error every file write gives."""
     import errno
-
-    import geomdl._exchange
+    from pathlib import Path
 
     from replication.errors import OutputError
 
-    class FullDisk:
-        def __init__(self, name, mode):
-            pass
+    def full(self, data):
+        raise OSError(errno.ENOSPC, "No space left on device")
 
-        def __enter__(self):
-            return self
-
-        def __exit__(self, *exc):
-            return False
-
-        def write(self, text):
-            raise OSError(errno.ENOSPC, "No space left on device")
-
-    monkeypatch.setattr(geomdl._exchange, "open", FullDisk, raising=False)  # geomdl's own writer opens it
+    monkeypatch.setattr(Path, "write_bytes", full)
     target = tmp_path / "s.json"
     with pytest.raises(OutputError, match=rf"^cannot write {target}: No space left on device$"):
         write_nurbs(patch, target)
     assert list(tmp_path.iterdir()) == []  # no temporary left
+
+
+def _geomdl_json(patch, path):
+    exchange.export_json(patch.to_geomdl(), str(path))
+    return path.read_text()
+
+
+@pytest.mark.parametrize("n", [9, 45, 200])
+def test_json_is_the_file_geomdl_writes_byte_for_byte(n, tmp_path):
+    """Table 1's JSON file sizes and any reader of geomdl's files see the same bytes."""
+    patch = fit_nurbs(random_cloud(n, rng=n), tessellation=None).patch
+    write_nurbs(patch, tmp_path / "ours.json")
+    assert (tmp_path / "ours.json").read_bytes() == _geomdl_json(patch, tmp_path / "geomdl.json").encode()
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    degrees=hst.tuples(hst.integers(1, 3), hst.integers(1, 3)),
+    extra=hst.tuples(hst.integers(0, 4), hst.integers(0, 4)),
+    seed=hst.integers(0, 2**32 - 1),
+    scale=hst.sampled_from([1e-300, 1e-8, 1.0, 1e8, 1e300]),
+    rational=hst.booleans(),
+    uniform=hst.booleans(),
+)
+def test_json_matches_geomdl_on_rational_and_non_uniform_patches(
+    degrees, extra, seed, scale, rational, uniform
+):
+    """The weighted points ((x * w) / w), the knots' 18-decimal normalisation and every float's
+    decimals, as geomdl writes them; weights and knots of any kind, values of any magnitude."""
+    import tempfile
+    from pathlib import Path
+
+    rng = np.random.default_rng(seed)
+    (p_u, p_v), (e_u, e_v) = degrees, extra
+    m_u, m_v = p_u + 1 + e_u, p_v + 1 + e_v
+
+    def knots(m, p):
+        if uniform:
+            return clamped_uniform_knots(m, p)
+        inner = np.sort(rng.random(m - p - 1)) * 7.3 + 0.1
+        return np.concatenate([[0.1] * (p + 1), inner, [7.4] * (p + 1)])
+
+    patch = NurbsPatch(
+        p_u, p_v, knots(m_u, p_u), knots(m_v, p_v),
+        rng.normal(size=(m_u, m_v, 3)) * scale,
+        rng.random((m_u, m_v)) * 3 + 0.01 if rational else np.ones((m_u, m_v)),
+    )  # fmt: skip
+    with tempfile.TemporaryDirectory() as scratch:
+        ours = write_nurbs(patch, Path(scratch) / "ours.json")
+        theirs = _geomdl_json(patch, Path(scratch) / "geomdl.json")
+        assert (Path(scratch) / "ours.json").read_text() == theirs and ours == len(theirs.encode())
