@@ -483,9 +483,15 @@ def test_large_clouds_say_when_their_long_steps_start_and_end(capsys, tmp_path, 
     code, _, err = run(capsys, "nurbs", "--random", "60", "-o", str(out_json), "--json")
     assert (
         code == 0
-        and err.splitlines()[0] == "fitting the NURBS surface to 60 points (geomdl tessellation) ..."
+        and err.splitlines()[0]
+        == "fitting the NURBS surface to 60 points (geomdl tessellation; --evaluator fast takes a fraction "
+        "of the time) ..."
     )
     assert err.splitlines()[2] == f"writing {out_json} ..." and len(err.splitlines()) == 4
+    code, _, err = run(capsys, "nurbs", "--random", "60", "--evaluator", "fast")
+    assert (
+        code == 0 and err.splitlines()[0] == "fitting the NURBS surface to 60 points (fast tessellation) ..."
+    )
     code, _, err = run(capsys, "nurbs", "--random", "60")  # nothing written: no writing step
     assert code == 0 and "writing" not in err and err.count("\n") == 2
     monkeypatch.setattr(surfaces, "LARGE_CLOUD", 1)
