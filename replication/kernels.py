@@ -127,7 +127,7 @@ def _triangulation() -> None:
     tri, nbr = frozen(surface.triangles, np.int32), frozen(surface.neighbors, np.int32)
     owner, out = np.full((2, 2), -1, dtype=np.int32), np.empty((2, 2))
     _raster._raster_shared(xy, tri, nbr, values, axis, axis, 0, 0, owner, out)
-    fit_nurbs(cloud, evaluator="fast", triangulation=surface, tessellation=(4, 4))
+    fit_nurbs(lattice, evaluator="fast", triangulation=surface, tessellation=(4, 4))  # the last surface's
 
 
 def _interpolation(surface) -> None:

@@ -235,6 +235,49 @@ def test_triangulation_must_belong_to_the_cloud():
     a, b = random_cloud(50, rng=1), random_cloud(60, rng=2)
     with pytest.raises(InputError, match="triangulation is of 50 points, the cloud has 60"):
         fit_nurbs(b, triangulation=adt(a))
+    # was: another cloud of as many points gave the triangulation's cloud's NURBS, silently
+    c = random_cloud(50, rng=3)
+    with pytest.raises(InputError, match=r"not built from these points: point 0 has x = .*, its vertex 0 "):
+        fit_nurbs(c, triangulation=adt(a))
+    # the same lattice at other depths (Table 1's clouds share their lattice)
+    lattice = _lattice(np.random.default_rng(4))
+    other = lattice.copy()
+    other[7, 2] += 0.5
+    with pytest.raises(InputError, match=r"point 7 has z = "):
+        fit_nurbs(other, triangulation=adt(lattice, depth="z"))
+    with pytest.raises(
+        InputError, match=r"triangulation must be the cloud's Surface from adt\(\), got ndarray"
+    ):
+        fit_nurbs(a, triangulation=a)
+
+
+def _lattice(rng):
+    """42 distinct lattice positions (7 x 6) at random depths."""
+    u, v = np.meshgrid(np.arange(7.0), np.arange(6.0), indexing="ij")
+    return np.column_stack([u.ravel(), v.ravel(), rng.random(42) * 3])
+
+
+def test_a_triangulation_with_merged_points_fits_its_own_cloud():
+    """Merged points keep the policy's depth: only the projection and unmerged depths are compared."""
+    from replication.surfaces import adt
+
+    cloud = _lattice(np.random.default_rng(5))
+    cloud = np.vstack([cloud, cloud[:6] + [0, 0, 1.0]])  # six positions twice, at other depths
+    with pytest.warns(UserWarning, match="merged 6 point"):
+        surface = adt(cloud, depth="z", duplicates="mean")
+    assert surface.n_merged == 6 and len(cloud) == 48
+    ours = fit_nurbs(cloud, triangulation=surface, tessellation=None)
+    with pytest.warns(UserWarning, match="merged 6 point"):
+        again = fit_nurbs(cloud, depth="z", tessellation=None)
+    np.testing.assert_array_equal(ours.patch.control_points, again.patch.control_points)
+    moved = cloud.copy()
+    moved[-1, 0] += 1e-9  # a merged point elsewhere in the plane
+    with pytest.raises(InputError, match=r"point 47 has x = "):
+        fit_nurbs(moved, triangulation=surface)
+    moved = cloud.copy()
+    moved[20, 2] += 1  # an unmerged point at another depth
+    with pytest.raises(InputError, match=r"point 20 has z = "):
+        fit_nurbs(moved, triangulation=surface)
 
 
 def test_a_patch_copies_arrays_the_caller_can_change_and_keeps_its_own_read_only_ones():

@@ -265,6 +265,34 @@ class NurbsSurface:
         return self.tessellation.reshape(-1, 3), triangles
 
 
+def _check_built_from(cloud: np.ndarray, surface: Surface) -> None:
+    """Refuse a triangulation of another cloud: the grid is read from the triangulation alone,
+    so another cloud's surface of as many points gave that cloud's NURBS without a word.
+
+    Each point must lie where its vertex does in the projection plane, and at its depth when
+    no other point merged into that vertex (a merged depth follows the duplicate policy).
+    """
+    vertex = np.asarray(surface.vertex_of_input)
+    if vertex.shape != (cloud.shape[0],) or vertex.dtype.kind not in "iu":
+        raise InputError(
+            "triangulation.vertex_of_input does not fit the cloud: it was not built by adt() for it"
+        )
+    single = None
+    for axis in (*surface.projection_axes, surface.depth_axis):
+        ours, theirs = cloud[:, axis], surface.points[:, axis][vertex]
+        if axis == surface.depth_axis and surface.n_vertices != cloud.shape[0]:  # merged points
+            single = np.bincount(vertex, minlength=surface.n_vertices)[vertex] == 1
+            ours, theirs = ours[single], theirs[single]
+        if not np.array_equal(ours, theirs):
+            k = int(np.flatnonzero(ours != theirs)[0])
+            k = int(np.flatnonzero(single)[k]) if single is not None else k
+            raise InputError(
+                f"the triangulation was not built from these points: point {k} has {'xyz'[axis]} = "
+                f"{cloud[k, axis]:.17g}, its vertex {int(vertex[k])} {surface.points[vertex[k], axis]:.17g}; "
+                "pass the Surface that adt() built from this cloud"
+            )
+
+
 def _check_triangulation(surface: Surface) -> None:
     """Refuse a given Surface whose index arrays the compiled gridding would read out of bounds.
 
@@ -357,10 +385,16 @@ def fit_nurbs(
     if triangulation is None:
         surface = adt(points, depth=depth, duplicates=duplicates, backend=backend, tie_rtol=tie_rtol)
     else:  # the triangulation fixes the frame and duplicate policy: it must be this cloud's
-        n = validated_cloud(points)[0].shape[0]
+        if not isinstance(triangulation, Surface):
+            raise InputError(
+                f"triangulation must be the cloud's Surface from adt(), got {type(triangulation).__name__}"
+            )
+        cloud = validated_cloud(points)[0]
+        n = cloud.shape[0]
         if triangulation.n_input != n:
             raise InputError(f"the triangulation is of {triangulation.n_input} points, the cloud has {n}")
         _check_triangulation(triangulation)
+        _check_built_from(cloud, triangulation)
         surface = triangulation
     # the extremes of the vertices are hull vertices: the same numbers as over every vertex,
     # without four passes over a million-point cloud's strided columns (8 ms)
