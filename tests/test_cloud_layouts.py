@@ -222,3 +222,38 @@ def test_a_cloud_reads_the_same_from_csv_plain_npy_and_structured_npy(cloud, ord
         np.save(scratch / "r.npy", _records(cloud, ["xyz"[axis] for axis in order], order=order))
         for name in ("c.csv", "c.npy", "r.npy"):
             np.testing.assert_array_equal(load_cloud(scratch / name), cloud)
+
+
+@pytest.mark.parametrize("order", list(itertools.permutations(range(3))))
+def test_a_dataframe_s_column_names_say_which_column_is_which_axis(tmp_path, order):
+    # was: the columns were taken in their order (z, x, y as x, y, z), and save_cloud wrote the
+    # z values under the header x
+    import pandas as pd
+
+    import replication as rp
+
+    frame = pd.DataFrame({"xyz"[axis]: CLOUD[:, axis] for axis in order})
+    np.testing.assert_array_equal(rp.adt(frame, depth="z").points, rp.adt(CLOUD, depth="z").points)
+    save_cloud(frame, tmp_path / "c.csv")
+    assert (tmp_path / "c.csv").read_text().splitlines()[1] == "0,1.5,-2"
+    np.testing.assert_array_equal(load_cloud(tmp_path / "c.csv"), CLOUD)
+    records = _records(CLOUD, ["xyz"[axis] for axis in order], order=order)
+    np.testing.assert_array_equal(rp.adt(records, depth="z").points, rp.adt(CLOUD, depth="z").points)
+
+
+def test_a_dataframe_without_axis_names_keeps_its_column_order_and_bad_names_are_refused():
+    import pandas as pd
+
+    from replication.errors import InputError
+    from replication.surfaces.cloud import as_cloud
+
+    np.testing.assert_array_equal(as_cloud(pd.DataFrame(CLOUD)), CLOUD)  # columns 0, 1, 2
+    np.testing.assert_array_equal(as_cloud(pd.DataFrame(CLOUD, columns=["e", "n", "h"])), CLOUD)
+    with pytest.raises(InputError, match=r"the columns index, x, y name two axes, .* drop that column"):
+        as_cloud(pd.DataFrame({"x": CLOUD[:, 0], "y": CLOUD[:, 1]}).reset_index())
+    with pytest.raises(InputError, match=r"the columns x, X, z name the axis x more than once") as caught:
+        as_cloud(pd.DataFrame(CLOUD, columns=["x", "X", "z"]))
+    assert type(caught.value) is InputError  # an argument, not a file
+    with pytest.raises(InputError, match=r"a structured array of 2 field\(s\)") as caught:
+        as_cloud(np.zeros(4, dtype=[("x", "f8"), ("y", "f8")]))
+    assert type(caught.value) is InputError

@@ -32,10 +32,6 @@ def axis_name(token: str) -> str:
     return last if prefix and last in ("x", "y", "z") else word
 
 
-def _verb(what: str) -> str:
-    return "names" if what == "header" else "name"  # the header names, the fields name
-
-
 def _row_index(token: str) -> bool:
     """Whether a column name is one pandas gives a frame's row index: none (``to_csv``
     writes ``,x,y``), ``index`` (``to_records``), ``Unnamed: 0`` (``read_csv`` of such a
@@ -59,9 +55,9 @@ def axis_order(path: Path, tokens: list[str], *, what: str = "header") -> list[i
         The file, for messages.
     tokens : list of str
         The names, one per column.
-    what : str
-        What holds the names, for messages: ``"header"`` of a text file, ``"fields"`` of a
-        structured array.
+    what : {"header", "fields", "columns"}
+        What holds the names, for messages: the header of a text file, the fields of a
+        structured array, the columns of a pandas DataFrame.
 
     Raises
     ------
@@ -72,6 +68,7 @@ def axis_order(path: Path, tokens: list[str], *, what: str = "header") -> list[i
     names = [axis_name(t) for t in tokens]
     if len(names) != 3:
         return None
+    verb, column, drop, tail = _WORDING[what]
     named = [name for name in names if name in ("x", "y", "z")]
     distinct = len(set(named)) == len(named)
     if distinct and all(names[k] == axis for k, axis in enumerate("xyz") if axis in names):
@@ -79,18 +76,13 @@ def axis_order(path: Path, tokens: list[str], *, what: str = "header") -> list[i
     if distinct and len(named) >= 2:  # the column not named is the axis not named
         unnamed = next((k for k in range(3) if names[k] not in named), -1)  # -1: all three named
         if unnamed >= 0 and _row_index(tokens[unnamed]):
-            column = "column" if what == "header" else "field"
-            saved = "to_csv(index=False)" if what == "header" else "to_records(index=False)"
             raise CloudFileError(
-                f"{path}: the {what} {quoted_names(tokens)} {_verb(what)} two axes, "
-                f"and its {column} {unnamed + 1} ({tokens[unnamed].strip()!r}) is pandas' row index, not the "
-                f"third axis: save the frame without its index ({saved}), or name the {column} "
-                f"{'xyz'[3 - sum('xyz'.index(n) for n in named)]}"
+                f"{path}: the {what} {quoted_names(tokens)} {verb} two axes, and its {column} {unnamed + 1} "
+                f"({tokens[unnamed].strip()!r}) is pandas' row index, not the third axis: {drop}, or name "
+                f"the {column} {'xyz'[3 - sum('xyz'.index(n) for n in named)]}"
             )
         order = [names.index(axis) if axis in names else unnamed for axis in ("x", "y", "z")]
         return None if order == [0, 1, 2] else order
-    verb = _verb(what)
-    column = "column" if what == "header" else "field"
     raise CloudFileError(
         f"{path}: the {what} {quoted_names(tokens)} {verb} "
         + (
@@ -98,6 +90,19 @@ def axis_order(path: Path, tokens: list[str], *, what: str = "header") -> list[i
             if len(set(named)) != len(named)
             else f"{named[0]} as {column} {names.index(named[0]) + 1} but not the other axes"
         )
-        + f": name the {'columns' if what == 'header' else 'fields'} x, y and z (in any order)"
-        + (", or give no header" if what == "header" else "")
+        + f": name the {column}s x, y and z (in any order){tail}"
     )
+
+
+#: For each holder of names: its verb, what it calls a column, how to be rid of pandas' row
+#: index in it, and what else a message offers.
+_WORDING = {
+    "header": (
+        "names",
+        "column",
+        "save the frame without its index (to_csv(index=False))",
+        ", or give no header",
+    ),
+    "fields": ("name", "field", "save the frame without its index (to_records(index=False))", ""),
+    "columns": ("name", "column", "drop that column (frame.drop(columns=...))", ""),
+}

@@ -24,7 +24,7 @@ import numpy as np
 from replication.errors import CloudFileError, CloudFileWarning
 from replication.io.axisnames import axis_name, axis_order, quoted_names
 
-__all__ = ["load_npy"]
+__all__ = ["load_npy", "unstructured"]
 
 _NPY_MAGIC = b"\x93NUMPY"
 
@@ -95,7 +95,7 @@ def _read(path: Path) -> np.ndarray:
         raise CloudFileError(f"{path}: not a readable .npy array (truncated or damaged: {exc})") from exc
 
 
-def _unstructured(path: Path, data: np.ndarray) -> np.ndarray:
+def unstructured(path: Path, data: np.ndarray) -> np.ndarray:
     """The (n, 3) coordinates of a structured array of three real numeric fields."""
     names = list(data.dtype.names or ())
     fields = [data.dtype.fields[name][0] for name in names]
@@ -150,4 +150,4 @@ def load_npy(path: Path) -> np.ndarray:
         of a plain array are checked by the caller (:func:`replication.surfaces.cloud.as_cloud`).
     """
     data = _read(path)
-    return _unstructured(path, data) if data.dtype.names is not None else data
+    return unstructured(path, data) if data.dtype.names is not None else data

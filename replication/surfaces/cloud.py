@@ -159,15 +159,54 @@ def make_rng(rng: RNGLike) -> np.random.Generator:
 _NOT_COORDINATES = {"b": "booleans", "M": "dates and times", "m": "time spans"}
 
 
+def _named_columns(points: object, name: str) -> object:
+    """A pandas DataFrame or a structured array as its three columns in x, y, z order.
+
+    Column and field names say which is which axis by the rules of a cloud file's header
+    (:func:`replication.io.axisnames.axis_order`): a frame with columns ``z, x, y`` is the
+    same cloud as a ``.csv`` headed ``z,x,y`` or a ``.npy`` with fields ``z, x, y`` (its
+    columns were taken in their order, so the axes were swapped). Names that say no axis
+    leave the columns in their order. Other inputs are returned as they are.
+    """
+    if isinstance(points, np.ndarray) and points.dtype.names is not None:
+        from pathlib import Path
+
+        from replication.errors import CloudFileError
+        from replication.io.npyclouds import unstructured
+
+        try:
+            return unstructured(Path(name), points)
+        except CloudFileError as exc:  # not a file: the error of an argument
+            raise InputError(str(exc)) from None
+    columns = getattr(points, "columns", None)
+    if columns is None or not hasattr(points, "to_numpy") or len(columns) != 3:
+        return points
+    from pathlib import Path
+
+    from replication.errors import CloudFileError
+    from replication.io.axisnames import axis_order
+
+    try:
+        order = axis_order(Path(name), [str(c) for c in columns], what="columns")
+    except CloudFileError as exc:  # not a file: the error of an argument
+        raise InputError(str(exc)) from None
+    return points if order is None else points.iloc[:, order]
+
+
 def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
     """Validate a point cloud and return it as a float64 array of shape (n, 3).
+
+    A pandas DataFrame's column names, or a structured array's field names, say which column
+    is which axis, as a cloud file's header does (``z, x, y`` is reordered; names of no axis
+    keep their order).
 
     Raises
     ------
     InputError
         Wrong shape, non-numeric or complex values, or NaN/infinite coordinates (the rows are
-        named).
+        named); column or field names that contradict each other (an axis named twice).
     """
+    points = _named_columns(points, name)
     if isinstance(points, np.ma.MaskedArray) and np.ma.is_masked(points):
         raise InputError(
             f"{name}: {int(np.ma.count_masked(points))} masked value(s): numpy would use the values "
