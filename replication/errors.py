@@ -21,6 +21,7 @@ __all__ = [
     "ExecutorError",
     "InputError",
     "JetResolutionWarning",
+    "JetUnitsWarning",
     "OutputError",
     "ReplicationError",
     "ReportDataError",
@@ -120,6 +121,11 @@ class DuplicatePointsWarning(UserWarning):
 
 class CloudFileWarning(UserWarning):
     """A point-cloud file that was read, but with a doubt worth telling the user about."""
+
+
+class JetUnitsWarning(UserWarning):
+    """A jet that misses a surface a hundred times larger or smaller than itself: most likely
+    lengths in another unit than the one taken (millimetres for vertices, metres for the jet)."""
 
 
 class JetResolutionWarning(UserWarning):

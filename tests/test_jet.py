@@ -399,3 +399,27 @@ def test_the_pieces_of_a_fine_jet_change_nothing_and_report_their_streamlets(mon
         assert fine.force.tolist() == other.force.tolist() and fine.n_parcels == other.n_parcels
     assert len(heard) == pieces == (2 if resolution == 8 else 8)
     assert heard == sorted(heard) and heard[-1] == fine.n_streamlets and len(set(heard)) == pieces
+
+
+def test_a_jet_that_misses_a_surface_of_another_scale_warns_of_units():
+    """Surface vertices in millimetres, JetConfig in metres: either mixed up gave 0 N, silently."""
+    import warnings
+
+    import replication as rp
+    from replication.casestudy.jet import surface_force
+    from replication.errors import JetUnitsWarning
+
+    cloud = rp.random_cloud(101, rng=3, step=1)
+    surface = rp.adt(cloud, depth="z")
+    with pytest.warns(
+        JetUnitsWarning, match=r"the jet \(18,000 mm wide, centred at \(18,000, 0\) mm\) misses"
+    ):
+        assert not surface_force(surface, JetConfig(diameter=18, center=(18, 0))).force.any()
+    with pytest.warns(
+        JetUnitsWarning, match=r"misses the surface \(x 0\.\.0\.036, y 0\.\.0\.03 mm\) and is 500"
+    ):
+        assert not surface_force(rp.adt(cloud / 1000, depth="z")).force.any()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a jet of the surface's own scale that lies elsewhere: 0 N, rightly
+        assert not surface_force(surface, JetConfig(center=(0.5, 0.0))).force.any()
+        assert surface_force(surface).force[2] < 0  # and one that strikes it: no word either

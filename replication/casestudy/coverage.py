@@ -6,6 +6,12 @@ that spacing can lie under the jet and still fall between the streamlets (a 1000
 36 mm surface at the default resolution: rings 62.5 mm wide), and the force is then 0 N, not
 because the jet misses but because the sampling is too coarse. :func:`warn_if_too_coarse`
 tells the two apart and names a resolution that puts streamlets on the surface.
+
+A jet that misses a surface of its own scale is no mistake: its force of 0 N is right. One
+that misses a surface a hundred times smaller or larger than itself most likely meets lengths
+in the wrong unit (vertices in millimetres, :class:`JetConfig` in metres: a surface given in
+metres, or a jet diameter in millimetres, is off by a thousand); :func:`warn_if_units_differ`
+says so.
 """
 
 from __future__ import annotations
@@ -17,10 +23,14 @@ import numpy as np
 
 from replication.casestudy.jetconfig import JetConfig
 from replication.casestudy.units import to_millimetres
-from replication.errors import JetResolutionWarning
+from replication.errors import JetResolutionWarning, JetUnitsWarning
 from replication.surfaces.interpolate import locate
 
-__all__ = ["warn_if_too_coarse"]
+__all__ = ["UNITS_RATIO", "warn_if_too_coarse", "warn_if_units_differ"]
+
+#: A jet and a surface whose sizes differ by this factor or more, and that miss each other,
+#: are taken for lengths in different units.
+UNITS_RATIO = 100.0
 
 
 def _in_jet(xy: np.ndarray, config: JetConfig) -> np.ndarray:
@@ -103,5 +113,41 @@ def warn_if_too_coarse(
         f"resolution {resolution}), coarser than the surface ({width:.3g} x {depth:.3g} mm in x-y), so its "
         f"force of 0 N is not the jet's; {advice}",
         JetResolutionWarning,
+        stacklevel=stacklevel + 1,
+    )
+
+
+def warn_if_units_differ(
+    xy: np.ndarray, triangles: np.ndarray, config: JetConfig, *, stacklevel: int = 2
+) -> None:
+    """Warn when the jet misses a surface whose size differs from the jet's by :data:`UNITS_RATIO`.
+
+    Called only when no streamlet strikes. A surface partly under the jet is the business of
+    :func:`warn_if_too_coarse`; one of the jet's own scale that lies elsewhere misses, rightly.
+
+    Warns
+    -----
+    JetUnitsWarning
+        With both sizes and positions in millimetres and the units each function takes.
+    """
+    used = xy[np.unique(triangles)]
+    if _in_jet(used, config).any():
+        return
+    low, high = used.min(axis=0), used.max(axis=0)
+    size = float((high - low).max())
+    ratio = config.diameter / size if size > 0 else np.inf
+    if 1 / UNITS_RATIO < ratio < UNITS_RATIO:
+        return
+    (x0, y0), (x1, y1) = to_millimetres(low).tolist(), to_millimetres(high).tolist()
+    cx, cy = to_millimetres(config.center).tolist()
+    factor = f"{ratio:.3g} times" if ratio >= 1 else f"1/{1 / ratio:.3g} of"
+    width = float(to_millimetres(config.diameter))
+    warnings.warn(
+        f"the jet ({width:,.6g} mm wide, centred at ({cx:,.6g}, {cy:,.6g}) mm) "
+        f"misses the surface (x {x0:.4g}..{x1:.4g}, y {y0:.4g}..{y1:.4g} mm) and is {factor} its size: are "
+        "the lengths in the units each takes? Surface vertices are in millimetres, JetConfig in metres "
+        "(the paper's jet: diameter=0.018, center=(0.018, 0.0)); on the command line every length is in "
+        "millimetres",
+        JetUnitsWarning,
         stacklevel=stacklevel + 1,
     )

@@ -64,7 +64,7 @@ from numpy.typing import ArrayLike
 
 from replication._aot import kernel
 from replication.casestudy import _sheetcodes as codes
-from replication.casestudy.coverage import warn_if_too_coarse
+from replication.casestudy.coverage import warn_if_too_coarse, warn_if_units_differ
 from replication.casestudy.jetconfig import JetConfig  # re-exported: jet.JetConfig keeps working
 from replication.casestudy.losses import SheetLosses
 from replication.casestudy.mesh import check_domain, check_height_field, weld
@@ -288,6 +288,7 @@ def _trace(
             MAX_RESOLUTION,
             stacklevel=3,
         )
+        warn_if_units_differ(points[:, :2], triangles, config, stacklevel=3)
     total.flags.writeable = False  # before the views are taken: they inherit it
     force = total[codes.ROW_FORCE : codes.ROW_FORCE + 3]
     out = total[codes.ROW_OUT : codes.ROW_OUT + 3]
