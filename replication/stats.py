@@ -207,6 +207,23 @@ def _wilcoxon(a: np.ndarray, b: np.ndarray, tolerance: float = 0.0) -> tuple[flo
     return min(r_plus, r_minus), float(test.pvalue)
 
 
+def _sample(values: ArrayLike, name: str) -> np.ndarray:
+    """One paired sample as float64 of shape (n,), refused as :func:`.as_cloud` refuses a cloud:
+    masked values (numpy would use the values under the mask), booleans, complex or text, and
+    another shape (a 2-D array was flattened without a word)."""
+    if isinstance(values, np.ma.MaskedArray) and np.ma.is_masked(values):
+        raise InputError(
+            f"paired sample {name}: {int(np.ma.count_masked(values))} masked value(s): numpy would use the "
+            "values hidden under the mask; drop those pairs first"
+        )
+    array = np.asarray(values)
+    if array.dtype.kind not in "iuf":
+        raise InputError(f"paired sample {name} must be real numbers, got dtype {array.dtype}")
+    if array.ndim != 1:
+        raise InputError(f"paired sample {name} must have shape (n,), got shape {array.shape}")
+    return array.astype(np.float64, copy=False)
+
+
 def paired_statistics(
     a: ArrayLike,
     b: ArrayLike,
@@ -226,11 +243,17 @@ def paired_statistics(
     margin_fraction : float
         Equivalence margin as a fraction of ``depth_range`` (default 0.05, the paper's 5 %).
     alpha : float
-        Significance level (default 0.05, the paper's 95 %).
+        Significance level in (0, 0.5) (default 0.05, the paper's 95 %).
 
     Returns
     -------
     PairedStatistics
+
+    Raises
+    ------
+    InputError
+        Samples of other lengths, shapes or types (masked, boolean, complex), fewer than 3
+        pairs, NaN or infinite values, a bad depth range, alpha or margin.
 
     Notes
     -----
@@ -239,8 +262,7 @@ def paired_statistics(
     depth_range = real(depth_range, "depth_range")
     alpha = real(alpha, "alpha")
     margin_fraction = real(margin_fraction, "margin_fraction")
-    a = np.asarray(a, dtype=np.float64).ravel()
-    b = np.asarray(b, dtype=np.float64).ravel()
+    a, b = _sample(a, "a"), _sample(b, "b")
     if a.shape != b.shape:
         raise InputError(f"paired samples must have equal length, got {a.size} and {b.size}")
     if a.size < 3:
@@ -249,8 +271,11 @@ def paired_statistics(
         raise InputError("paired samples contain NaN or infinite values")
     if not (np.isfinite(depth_range) and depth_range > 0):
         raise InputError(f"depth range must be positive and finite, got {depth_range=}")
-    if not 0 < alpha < 1:
-        raise InputError(f"alpha must be in (0, 1), got {alpha=}")
+    if not 0 < alpha < 0.5:  # the TOST interval's confidence 1 - 2 alpha must be positive
+        raise InputError(
+            "alpha must be in (0, 0.5): the equivalence test's interval has confidence 1 - 2 alpha, "
+            f"got {alpha=}"
+        )
     if not margin_fraction > 0:
         raise InputError(f"equivalence margin must be positive, got {margin_fraction=}")
 

@@ -463,10 +463,15 @@ def test_a_containers_memory_limit_counts_as_what_is_available(tmp_path, monkeyp
 
 
 def test_margin_and_alpha_must_be_finite(capsys):
-    for option, value in (("--margin", "inf"), ("--margin", "nan"), ("--margin", "-0.1"), ("--alpha", "1.5")):
+    for option, value in (
+        ("--margin", "inf"), ("--margin", "nan"), ("--margin", "-0.1"), ("--alpha", "1.5"), ("--alpha", "0.5")
+    ):  # fmt: skip
         with pytest.raises(SystemExit) as exc:
             main(["compare", "--random", "30", "--seed", "1", option, value])
         assert exc.value.code == 2 and "expected" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["compare", "--random", "30", "--seed", "1", "--alpha", "0.6"])
+    assert "expected a significance level strictly between 0 and 0.5" in capsys.readouterr().err
 
 
 def test_malformed_vtk_files_give_one_line_and_no_vtk_log(capfd, tmp_path):

@@ -123,7 +123,23 @@ def test_as_dict_is_json_ready(samples):
         ({"a": [1, 2, np.nan], "b": [1, 2, 3]}, "NaN"),
         ({"depth_range": 0.0}, "depth range"),
         ({"alpha": 1.5}, "alpha"),
+        # the equivalence interval (1 - 2 alpha) was inverted and still said "equivalent"
+        ({"alpha": 0.6}, r"alpha must be in \(0, 0.5\): the equivalence test's interval has confidence"),
+        ({"alpha": 0.5}, r"alpha must be in \(0, 0.5\)"),
         ({"margin_fraction": 0.0}, "margin"),
+        # these were used as numpy converts them: the values under the mask, real parts,
+        # booleans as 0 and 1, a 2-D array flattened
+        (
+            {"a": np.ma.masked_array([1.0, 2, 3, 4], mask=[0, 0, 1, 1])},
+            r"paired sample a: 2 masked value\(s\): numpy would use the values hidden under the mask",
+        ),
+        ({"b": np.array([1.0, 2, 3, 4]) + 1j}, r"paired sample b must be real numbers, got dtype complex128"),
+        ({"a": np.array([True, False, True, True])}, r"paired sample a must be real numbers, got dtype bool"),
+        ({"a": ["1", "2", "3", "4"]}, r"paired sample a must be real numbers, got dtype <U1"),
+        (
+            {"a": np.ones((2, 2)), "b": np.ones((2, 2))},
+            r"paired sample a must have shape \(n,\), got shape \(2, 2\)",
+        ),
     ],
 )
 def test_bad_arguments(kwargs, match):

@@ -31,9 +31,9 @@ __all__ = [
     "pair",
     "positive_int",
     "positive_within",
-    "probability",
     "relay_warnings",
     "seed",
+    "significance",
     "usable_cpus",
     "warm_up",
     "worker_count",
@@ -139,11 +139,15 @@ def positive_within(low: float, high: float, noun: str, unit: str, why: str):
     return parse
 
 
-def probability(text: str) -> float:
-    """argparse type: a number strictly between 0 and 1."""
-    value = _float(text, "a number between 0 and 1")
-    if not 0 < value < 1:
-        raise argparse.ArgumentTypeError(f"expected a number strictly between 0 and 1, got {text!r}")
+def significance(text: str) -> float:
+    """argparse type: a significance level strictly between 0 and 0.5 (the equivalence test's
+    interval has confidence 1 - 2 alpha)."""
+    value = _float(text, "a significance level between 0 and 0.5")
+    if not 0 < value < 0.5:
+        raise argparse.ArgumentTypeError(
+            f"expected a significance level strictly between 0 and 0.5 (the equivalence interval has "
+            f"confidence 1 - 2 alpha), got {text!r}"
+        )
     return value
 
 

@@ -17,9 +17,9 @@ from replication.cli.common import (
     load_or_generate,
     pair,
     positive_int,
-    probability,
     relay_warnings,
     samples,
+    significance,
     warm_up,
 )
 from replication.cli.compare import EPILOG_COMPARE, cmd_compare
@@ -357,7 +357,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                 help="equivalence margin as a fraction of the depth range (default 0.05)",
             )
             p.add_argument(
-                "--alpha", type=probability, default=0.05, help="significance level (default 0.05)"
+                "--alpha", type=significance, default=0.05, help="significance level below 0.5 (default 0.05)"
             )
         p.add_argument(
             "--degree", type=positive_int, default=2, help="NURBS degree in both directions (default 2)"
