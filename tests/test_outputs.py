@@ -339,8 +339,38 @@ def test_save_cloud_bad_suffix_refused_before_work(capsys, tmp_path):
 
 
 @pytest.mark.parametrize(
+    ("command", "name", "fmt", "said"),
+    [
+        (
+            "adt",
+            "s.vtk",
+            "vtp",
+            "-o {} names a .vtk file (legacy VTK, ASCII), but --format vtp writes VTK XML",
+        ),
+        ("adt", "s.VTP", "vtk", "names a .vtp file (VTK XML, binary), but --format vtk writes legacy VTK"),
+        (
+            "nurbs",
+            "n.json",
+            "smesh",
+            "names a .json file (geomdl JSON), but --format smesh writes compact smesh",
+        ),
+    ],
+)
+def test_a_format_that_contradicts_the_suffix_is_refused_before_work(
+    capsys, tmp_path, command, name, fmt, said
+):
+    # was: a warning, and a .vtk file of VTK XML that force (and any reader going by the
+    # suffix) could not open
+    code, _, err = run(
+        capsys, command, "--random", "20", "--seed", "1", "-o", tmp_path / name, "--format", fmt
+    )
+    assert code == 2 and said.format(tmp_path / name) in err and err.count("\n") == 1, err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
     ("name", "fmt", "warned"),
-    [("s.vtk", "vtp", True), ("s.csv", "vtp", True), ("s.vtp", "vtp", False), ("s.vtk", None, False)],
+    [("s.csv", "vtp", True), ("s.vtp", "vtp", False), ("s.vtk", None, False)],
 )
 def test_format_under_another_suffix_warns(capsys, tmp_path, name, fmt, warned):
     extra = ["--format", fmt] if fmt else []

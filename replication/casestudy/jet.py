@@ -411,6 +411,11 @@ def surface_force(
     field over a convex footprint by construction and skips the mesh checks of
     :func:`jet_force`.
 
+    Raises
+    ------
+    InputError
+        Not a Surface, a depth axis other than z, a bad resolution.
+
     Warns
     -----
     JetResolutionWarning
@@ -422,6 +427,13 @@ def surface_force(
     """
     config = _default_config() if config is None else config
     resolution = _check_resolution(resolution)
+    from replication.surfaces.adt import Surface
+
+    if not isinstance(surface, Surface):  # (an array's "no attribute 'depth_axis'" named nothing)
+        raise InputError(
+            f"surface must be a Surface from adt(points, depth='z'), got {type(surface).__name__}; "
+            "jet_force() takes any triangulated height field as points and triangles"
+        )
     if surface.depth_axis != 2:
         raise InputError(
             f"the jet travels along -z, so the surface must be a height field over x-y (depth axis z), "

@@ -48,8 +48,21 @@ def check_outputs(args: argparse.Namespace) -> None:
     check_distinct(outputs, [("INPUT", getattr(args, "input", None))])
 
 
+def check_format_suffix(path: str | None, fmt: str | None, names: dict[str, str]) -> None:
+    """Refuse ``--format`` that contradicts the suffix of another of its formats: a ``.vtk``
+    name for VTP, which ``force`` and every reader that goes by the suffix then misread."""
+    suffix = Path(path).suffix.lower().lstrip(".") if path else ""
+    if fmt and suffix in names and suffix != fmt:
+        from replication.errors import UsageError
+
+        raise UsageError(
+            f"-o {path} names a .{suffix} file ({names[suffix]}), but --format {fmt} writes {names[fmt]}: "
+            f"name it .{fmt}, or drop --format"
+        )
+
+
 def suffix_warning(path: str | None, fmt: str | None, names: dict[str, str]) -> None:
-    """Warn when ``--format`` writes a file under another format's suffix (``.vtk`` holding VTP)."""
+    """Warn when ``--format`` writes a file under a suffix of none of its formats (``.csv``, or none)."""
     if not path or not fmt:
         return
     suffix = Path(path).suffix.lower().lstrip(".")

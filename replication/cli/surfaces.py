@@ -23,7 +23,13 @@ from replication.cli.common import (
     warm_up,
 )
 from replication.cli.compare import EPILOG_COMPARE, cmd_compare
-from replication.cli.files import check_outputs, save_generated_cloud, suffix_warning, write_all_or_none
+from replication.cli.files import (
+    check_format_suffix,
+    check_outputs,
+    save_generated_cloud,
+    suffix_warning,
+    write_all_or_none,
+)
 from replication.cli.progress import stage
 from replication.cli.resources import check_tessellation
 
@@ -106,6 +112,7 @@ def _cmd_adt(args: argparse.Namespace) -> int:
         except InputError as exc:
             raise UsageError(f"--split: {exc}") from exc
     _check_format_has_output(args)
+    check_format_suffix(args.output, args.format, SURFACE_KINDS)  # a misused option: before the library's
     fmt = surface_format(args.output, args.format) if args.output else args.format
     check_outputs(args)
     suffix_warning(args.output, args.format, SURFACE_KINDS)
@@ -203,6 +210,7 @@ def _cmd_nurbs(args: argparse.Namespace) -> int:
     from replication.surfaces.nurbs import fit_nurbs
 
     _check_format_has_output(args)
+    check_format_suffix(args.output, args.format, NURBS_KINDS)  # a misused option: before the library's
     fmt = nurbs_format(args.output, args.format) if args.output else args.format
     check_outputs(args)
     suffix_warning(args.output, args.format, NURBS_KINDS)

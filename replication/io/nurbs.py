@@ -113,11 +113,29 @@ def nurbs_format(path: str | os.PathLike[str], fmt: str | None = None) -> str:
             raise InputError(f"cannot tell the NURBS format from {str(path)!r}: use a .smesh or .json suffix")
     if fmt not in NURBS_FORMATS:
         raise InputError(f"unknown NURBS format {fmt!r}; choose one of {NURBS_FORMATS}")
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix in NURBS_FORMATS and suffix != fmt:  # a file its name says is the other format
+        raise InputError(f"{os.fspath(path)!r} names a .{suffix} file, but the format asked for is {fmt}")
     return fmt
 
 
 def write_nurbs(patch: NurbsPatch, path: str | os.PathLike[str], fmt: str | None = None) -> int:
-    """Write a NURBS patch atomically as ``.smesh`` or ``.json``; return the bytes written."""
+    """Write a NURBS patch atomically as ``.smesh`` or ``.json``; return the bytes written.
+
+    ``patch`` may also be the :class:`~replication.surfaces.nurbs.NurbsSurface` that
+    ``fit_nurbs`` returns (its ``patch`` is written).
+
+    Raises
+    ------
+    InputError
+        Not a NURBS, an unknown format, or a format that contradicts the file's suffix.
+    """
+    if not isinstance(patch, NurbsPatch) and isinstance(getattr(patch, "patch", None), NurbsPatch):
+        patch = patch.patch  # the NurbsSurface of fit_nurbs
+    if not isinstance(patch, NurbsPatch):
+        raise InputError(
+            f"write_nurbs takes a NurbsPatch or the NurbsSurface of fit_nurbs, got {type(patch).__name__}"
+        )
     if nurbs_format(path, fmt) == "smesh":
         return atomic_write_text(path, smesh_text(patch))
     return atomic_write_text(path, json_text(patch))

@@ -100,8 +100,42 @@ def legacy_vtk_text(
     return header + point_lines + polygons + triangle_lines
 
 
+def _mesh(mesh: TriangleMesh, path: str | os.PathLike[str], fmt: SurfaceFormat) -> TriangleMesh:
+    """``mesh`` if it has points and triangles and ``path``'s suffix does not name the other format.
+
+    An array, a NURBS or a file name whose suffix says the other format gave an AttributeError
+    or a file that :func:`read_surface` could not open (XML in a ``.vtk`` file).
+    """
+    if not (hasattr(mesh, "points") and hasattr(mesh, "triangles")):
+        hint = (
+            "; a NURBS is written with write_nurbs()"
+            if hasattr(mesh, "patch") or hasattr(mesh, "net_shape")
+            else "; a point cloud with save_cloud()"
+            if isinstance(mesh, np.ndarray)
+            else ""
+        )
+        raise InputError(
+            "a surface to write needs points and triangles (a Surface from adt()), got "
+            f"{type(mesh).__name__}{hint}"
+        )
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix in SURFACE_FORMATS and suffix != fmt:
+        raise InputError(
+            f"{os.fspath(path)!r} names a .{suffix} file, but the format written is {fmt} "
+            f"({'legacy VTK' if fmt == 'vtk' else 'VTK XML'}): name it .{fmt}, or write .{suffix}"
+        )
+    return mesh
+
+
 def write_vtk(mesh: TriangleMesh, path: str | os.PathLike[str], *, title: str = "ADT surface") -> int:
-    """Write a compact legacy-VTK ASCII file atomically; return its size in bytes."""
+    """Write a compact legacy-VTK ASCII file atomically; return its size in bytes.
+
+    Raises
+    ------
+    InputError
+        ``mesh`` without points and triangles, or a ``.vtp`` file name.
+    """
+    mesh = _mesh(mesh, path, "vtk")
     return atomic_write_text(path, legacy_vtk_text(mesh.points, mesh.triangles, title=title))
 
 
@@ -117,6 +151,7 @@ def write_vtp(
     compression (half the size, about 30x slower). Raw writing of a 1e6-point surface takes
     about 0.1 s.
     """
+    mesh = _mesh(mesh, path, "vtp")
     from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
     from vtkmodules.vtkCommonCore import vtkPoints
     from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
@@ -203,6 +238,9 @@ def surface_format(path: str | os.PathLike[str], fmt: str | None = None) -> Surf
             )
     if fmt not in SURFACE_FORMATS:
         raise InputError(f"unknown surface format {fmt!r}; choose one of {SURFACE_FORMATS}")
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix in SURFACE_FORMATS and suffix != fmt:  # XML in a .vtk file: read_surface refused it
+        raise InputError(f"{os.fspath(path)!r} names a .{suffix} file, but the format asked for is {fmt}")
     return fmt  # type: ignore[return-value]
 
 

@@ -107,8 +107,9 @@ def random_cloud(
     ----------
     n : int
         Number of points (paper eq. 2), at least 1.
-    box : Box
-        The domain (paper eq. 1); default the case study's 36 x 30 x 13 mm.
+    box : Box or sequence of 6 floats
+        The domain (paper eq. 1), or its bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)``;
+        default the case study's 36 x 30 x 13 mm.
     step : float, optional
         Discretisation step: coordinates are drawn uniformly from the lattice
         ``min + k * step`` inside the box (the case study uses 1 mm). ``None`` draws
@@ -128,6 +129,13 @@ def random_cloud(
     """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise InputError(f"number of points must be a positive integer, got {n=!r}")
+    if not isinstance(box, Box):
+        if isinstance(box, (str, bytes)) or not isinstance(box, Sequence | np.ndarray):
+            raise InputError(
+                f"box must be a Box or its 6 bounds (xmin, xmax, ymin, ymax, zmin, zmax), got {box!r}"
+                + ("; a seed goes in rng=" if isinstance(box, (int, np.integer, np.random.Generator)) else "")
+            )
+        box = Box.from_bounds(box)
     gen = make_rng(rng)
     lo, hi = box.lower, box.upper
     with np.errstate(over="ignore"):
