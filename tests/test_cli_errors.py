@@ -618,6 +618,12 @@ def test_underflowing_coordinates_are_named(capsys, tmp_path):
     np.save(tmp_path / "subnormal.npy", subnormal)
     code, _, err = run(capsys, "adt", tmp_path / "subnormal.npy", "--depth", "z")
     assert code == 1 and one_line(err, "adt") and "collinear" in err and "unexpected" not in err
+    # a square's corner beside a subnormal x: was "all 5 distinct projected points are collinear"
+    square = np.array([[0, 0, 1.0], [1, 0, 0], [0, 1, 0], [5e-324, 0, 3], [1, 1, 0]])
+    np.save(tmp_path / "square.npy", square)
+    code, _, err = run(capsys, "adt", tmp_path / "square.npy", "--depth", "z")
+    assert code == 1 and one_line(err, "adt") and "collinear" not in err.split("square.npy: ", 1)[-1]
+    assert "the coordinates underflow: x = 4.94e-324 of point 3 (counted from 0) is below 1.49e-154" in err
     np.save(tmp_path / "line.npy", np.column_stack([np.arange(4.0), np.zeros(4), np.ones(4)]))
     code, _, err = run(capsys, "adt", tmp_path / "line.npy", "--depth", "z")
     said = err.split("line.npy: ", 1)[-1]  # (the file's path holds this test's name)

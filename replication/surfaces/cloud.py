@@ -245,6 +245,11 @@ def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
     return arr
 
 
+#: Coordinates below this fraction of the largest one have squares below float64's smallest
+#: normal number (2**-511 squared is 2**-1022).
+_SQUARE_UNDERFLOW = 2.0**-511
+
+
 def underflow(uv: np.ndarray, names: tuple[str, str] = ("u", "v")) -> str | None:
     """Why the projected points cannot be triangulated in float64 because they are too small.
 
@@ -254,8 +259,10 @@ def underflow(uv: np.ndarray, names: tuple[str, str] = ("u", "v")) -> str | None
     flat, so such a cloud would be reported as collinear. The triangulator first scales a
     cloud by a power of two so that its largest coordinate is about 1 (see
     :mod:`.delaunay`), so the extents are compared after that scaling: only extents tiny
-    next to the coordinates themselves underflow. A zero extent is a line along an axis, not
-    an underflow. Returns a message saying so, or None.
+    next to the coordinates themselves underflow. So do coordinates below
+    :data:`_SQUARE_UNDERFLOW` of the largest one (a point at x = 5e-324 beside x = 0 and
+    x = 1): the distances among such points square to zero. A zero extent is a line along an
+    axis, not an underflow. Returns a message saying so, or None.
     """
     uv = np.asarray(uv, dtype=np.float64)
     extent = np.ptp(uv, axis=0) if uv.size else np.zeros(2)
@@ -263,9 +270,24 @@ def underflow(uv: np.ndarray, names: tuple[str, str] = ("u", "v")) -> str | None
     top = float(np.abs(uv).max()) if uv.size else 0.0
     if top == 0.0 or np.any(extent == 0.0):
         return None
-    scaled = np.ldexp(extent, -math.frexp(top)[1])  # 2.0 ** 1075 would overflow: ldexp does not
+    exponent = math.frexp(top)[1]
+    scaled = np.ldexp(extent, -exponent)  # 2.0 ** 1075 would overflow: ldexp does not
     if scaled[0] * scaled[1] >= tiny:
-        return None
+        # a coordinate tiny next to the largest (5e-324 beside 1): the distances between such
+        # points square to zero, and the points beside them look like one
+        magnitude = np.abs(uv)  # (scaled down, 5e-324 would round to 0 and hide)
+        tiny_ones = (magnitude > 0) & (magnitude < math.ldexp(_SQUARE_UNDERFLOW, exponent))
+        small = np.flatnonzero(tiny_ones.any(axis=1))
+        if small.size == 0:
+            return None
+        k = int(small[0])
+        column = int(np.argmax(tiny_ones[k]))
+        return (
+            f"the coordinates underflow: {names[column]} = {uv[k, column]:.3g} of point {k} (counted from 0) "
+            f"is below {_SQUARE_UNDERFLOW:.3g} of the largest coordinate, {top:.3g}, so distances between "
+            f"points that small square to zero and no triangle among them can be told from a line; round "
+            f"such coordinates to 0 ({small.size} point(s) have one)"
+        )
     return (
         f"the coordinates underflow: the projected points span only {extent[0]:.3g} x {extent[1]:.3g} in "
         f"({names[0]}, {names[1]}), so triangle areas fall below float64's smallest normal number "
