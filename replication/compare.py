@@ -20,7 +20,9 @@ Differences are ADT minus NURBS.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Literal
 
 import numpy as np
@@ -145,8 +147,12 @@ class Comparison:
     adt: Surface
     nurbs: NurbsSurface
     depth_range: float
-    pairings: dict[str, PairedDepths]
-    statistics: dict[str, PairedStatistics | None]
+    pairings: Mapping[str, PairedDepths]
+    statistics: Mapping[str, PairedStatistics | None]
+
+    def __post_init__(self) -> None:  # frozen: the mappings too (a dict could be changed)
+        object.__setattr__(self, "pairings", MappingProxyType(dict(self.pairings)))
+        object.__setattr__(self, "statistics", MappingProxyType(dict(self.statistics)))
 
 
 def compare(

@@ -24,6 +24,7 @@ equivalence (zero spread, zero mean).
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -80,7 +81,39 @@ def rounding_tolerance(depth_range: float, magnitude: float) -> float:
 
 @dataclass(frozen=True)
 class PairedStatistics:
-    """Every statistic of one set of paired depth differences (a - b)."""
+    """Every statistic of one set of paired depth differences d = a - b (paper section 4).
+
+    Attributes
+    ----------
+    n : int
+        Number of pairs.
+    alpha : float
+        Significance level of the tests.
+    mean_difference, sd_difference : float
+        Mean and sample standard deviation of d.
+    ci95 : tuple of float
+        The 95 % confidence interval of the mean difference, whatever ``alpha`` is.
+    cohens_dz : float
+        Effect size: mean over standard deviation of d.
+    rms, max_abs : float
+        Root mean square and largest absolute difference; ``rms_percent`` and
+        ``max_abs_percent`` are the same relative to ``depth_range``.
+    depth_range : float
+        The cloud's range along the depth axis.
+    t_test, wilcoxon : TestResult
+        Paired t-test and Wilcoxon signed-rank test (statistic, p-value, and whether the
+        samples are similar: the test does not reject at ``alpha``).
+    normality_test, normality_p :
+        The test of normality of d (Shapiro-Wilk, or its stand-in) and its p-value;
+        ``recommended_test`` is the paired test that suits them.
+    margin, margin_fraction : float
+        The equivalence margin, absolute and as a fraction of ``depth_range``.
+    tost_p, tost_ci, equivalent :
+        The equivalence test (two one-sided t-tests): its p-value, the (1 - 2 alpha)
+        interval of the mean difference, and whether that interval lies inside the margin.
+    magnitude : float
+        The largest |depth| of either sample (what float64 rounding is relative to).
+    """
 
     n: int
     alpha: float
@@ -388,7 +421,7 @@ def _paired(
         alpha=alpha,
         mean_difference=mean,
         sd_difference=sd,
-        ci95=(mean - t95 * sd / np.sqrt(n), mean + t95 * sd / np.sqrt(n)),
+        ci95=(float(mean - t95 * sd / math.sqrt(n)), float(mean + t95 * sd / math.sqrt(n))),
         cohens_dz=float(dz),
         rms=rms,
         max_abs=max_abs,
@@ -403,7 +436,7 @@ def _paired(
         margin=margin,
         margin_fraction=margin_fraction,
         tost_p=tost_p,
-        tost_ci=(mean - t_tost * sd / np.sqrt(n), mean + t_tost * sd / np.sqrt(n)),
+        tost_ci=(float(mean - t_tost * sd / math.sqrt(n)), float(mean + t_tost * sd / math.sqrt(n))),
         equivalent=bool(tost_p < alpha),
         magnitude=magnitude,
     )

@@ -90,3 +90,29 @@ def test_a_format_that_contradicts_the_file_s_suffix_is_refused(built, tmp_path,
         write(nurbs if name.endswith(".json") else surface, tmp_path / name)
     assert list(tmp_path.iterdir()) == []
     assert rp.write_vtk(surface, tmp_path / "plain.txt") > 0  # a suffix of no format: the caller's choice
+
+
+def test_a_comparison_is_frozen_through_and_through_and_its_intervals_are_floats():
+    # was: C.statistics["x"] = 1 worked on a frozen Comparison; ci95 held np.float64
+    result = rp.compare(rp.random_cloud(60, rng=2))
+    with pytest.raises(TypeError):
+        result.statistics["x"] = 1
+    with pytest.raises(TypeError):
+        result.pairings["x"] = 1
+    stats = result.statistics["cloud-points"]
+    assert all(type(v) is float for v in (*stats.ci95, *stats.tost_ci))
+
+
+def test_an_empty_cloud_is_named_empty_and_pandas_index_column_is_pointed_at(tmp_path):
+    import pandas as pd
+
+    from replication.errors import CloudFileError
+
+    # was: "need at least 3 points", where saving 2 points works
+    with pytest.raises(InputError, match=r"points is empty: no points$"):
+        rp.save_cloud(np.empty((0, 3)), tmp_path / "e.csv")
+    pd.DataFrame(np.random.default_rng(0).random((5, 3)), columns=list("xyz")).to_csv(tmp_path / "p.csv")
+    with pytest.raises(
+        CloudFileError, match=r"names 4 columns, .*; its first column is pandas' row index: save "
+    ):
+        rp.load_cloud(tmp_path / "p.csv")

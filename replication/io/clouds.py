@@ -229,9 +229,15 @@ def _load_text(path: Path) -> np.ndarray:
             raise CloudFileError(f"{path}: the file has a header but no data lines")
         counted = _header_count(numbered_header)
         if counted is not None and counted != 3:  # "x,y,z,i" over three columns: which three?
+            index = first_tokens and first_tokens[0].strip().strip("\"'").lower() in (
+                "",
+                "index",
+                "unnamed: 0",
+            )
             raise CloudFileError(
                 f"{path}: the header {quoted_names(first_tokens)} names {counted} columns, but a point cloud "
                 "has 3 (x, y, z): name the file's three columns, or give no header"
+                + ("; its first column is pandas' row index: save with to_csv(index=False)" if index else "")
             )
         named = axis_order(path, first_tokens) or [0, 1, 2]
         labels = not any(axis_name(t) in ("x", "y", "z") for t in first_tokens)

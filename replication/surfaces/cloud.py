@@ -236,7 +236,7 @@ def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
     if arr.ndim != 2 or arr.shape[1] != 3:
         raise InputError(f"{name} must have shape (n, 3), got shape {arr.shape}")
     if arr.shape[0] == 0:
-        raise InputError(f"{name} is empty: need at least 3 points")
+        raise InputError(f"{name} is empty: no points")
     bad = np.flatnonzero(~np.isfinite(arr).all(axis=1))
     if bad.size:
         raise InputError(
