@@ -22,15 +22,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from types import MappingProxyType
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from replication.errors import DegenerateInputError, InputError
 from replication.params import count_pair, real
-from replication.stats import PairedStatistics, paired_statistics
+from replication.stats import PairedStatistics, check_alpha, paired_statistics
 from replication.surfaces.adt import DEFAULT_TIE_RTOL, Surface, _readonly, adt
 from replication.surfaces.bspline import evaluate, invert, parameter_grid
 from replication.surfaces.cloud import as_cloud
@@ -151,8 +150,22 @@ class Comparison:
     statistics: Mapping[str, PairedStatistics | None]
 
     def __post_init__(self) -> None:  # frozen: the mappings too (a dict could be changed)
-        object.__setattr__(self, "pairings", MappingProxyType(dict(self.pairings)))
-        object.__setattr__(self, "statistics", MappingProxyType(dict(self.statistics)))
+        object.__setattr__(self, "pairings", ReadOnlyDict(self.pairings))
+        object.__setattr__(self, "statistics", ReadOnlyDict(self.statistics))
+
+
+class ReadOnlyDict(dict):
+    """A dict that refuses changes, and pickles, copies and ``asdict``-s as a dict does (a
+    ``MappingProxyType`` cannot be pickled: a Comparison could not leave its process)."""
+
+    def _refuse(self, *args: Any, **kwargs: Any) -> None:
+        raise TypeError("the mappings of a Comparison are read-only")
+
+    __setitem__ = __delitem__ = clear = pop = popitem = setdefault = update = _refuse  # type: ignore[assignment]
+    __ior__ = _refuse  # type: ignore[assignment]
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (type(self), (dict(self),))
 
 
 def compare(
@@ -191,11 +204,11 @@ def compare(
     Paper section 4: "Student's paired t test and Wilcoxon signed-rank test" on the z
     deviations of the two surfaces.
     """
-    cloud = as_cloud(points)
+    check_alpha(alpha)  # the arguments are checked before the cloud and the fitting
+    real(margin_fraction, "margin_fraction")
     if sample_shape is not None:  # (0, 5) gave no pairing without a word
         sample_shape = count_pair(sample_shape, "sample_shape", 2)
-    real(alpha, "alpha")  # checked before the fitting, not after it
-    real(margin_fraction, "margin_fraction")
+    cloud = as_cloud(points)
     surface = adt(cloud, depth=depth, duplicates=duplicates, backend=backend, tie_rtol=tie_rtol)
     nurbs = fit_nurbs(cloud, degree=degree, net=net, tessellation=None, triangulation=surface)
     depth_range = float(np.ptp(cloud[:, surface.depth_axis]))

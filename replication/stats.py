@@ -39,6 +39,7 @@ __all__ = [
     "ROUNDING_FRACTION",
     "PairedStatistics",
     "TestResult",
+    "check_alpha",
     "paired_statistics",
     "rounding_tolerance",
 ]
@@ -240,21 +241,37 @@ def _wilcoxon(a: np.ndarray, b: np.ndarray, tolerance: float = 0.0) -> tuple[flo
     return min(r_plus, r_minus), float(test.pvalue)
 
 
+def check_alpha(alpha: Any) -> float:
+    """``alpha`` as a float in (0, 0.5): the equivalence test's interval has confidence
+    1 - 2 alpha, which must be positive (at 0.6 it came out inverted and still said
+    "equivalent")."""
+    alpha = real(alpha, "alpha")
+    if not 0 < alpha < 0.5:
+        raise InputError(
+            "alpha must be in (0, 0.5): the equivalence test's interval has confidence 1 - 2 alpha, "
+            f"got {alpha=}"
+        )
+    return alpha
+
+
 def _sample(values: ArrayLike, name: str) -> np.ndarray:
     """One paired sample as float64 of shape (n,), refused as :func:`.as_cloud` refuses a cloud:
-    masked values (numpy would use the values under the mask), booleans, complex or text, and
-    another shape (a 2-D array was flattened without a word)."""
+    masked values (numpy would use the values under the mask), booleans, complex numbers, text
+    or dates, and another shape (a 2-D array was flattened without a word)."""
     if isinstance(values, np.ma.MaskedArray) and np.ma.is_masked(values):
         raise InputError(
             f"paired sample {name}: {int(np.ma.count_masked(values))} masked value(s): numpy would use the "
             "values hidden under the mask; drop those pairs first"
         )
     array = np.asarray(values)
-    if array.dtype.kind not in "iuf":
+    if array.dtype.kind in "bcmMUSV":  # numbers numpy would make of them without a word
         raise InputError(f"paired sample {name} must be real numbers, got dtype {array.dtype}")
     if array.ndim != 1:
         raise InputError(f"paired sample {name} must have shape (n,), got shape {array.shape}")
-    return array.astype(np.float64, copy=False)
+    try:  # (objects such as Fractions or large Python ints convert)
+        return array.astype(np.float64, copy=False)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"paired sample {name} must be real numbers: {exc}") from None
 
 
 def paired_statistics(
@@ -293,7 +310,7 @@ def paired_statistics(
     Paper section 4 (paired t-test and Wilcoxon signed-rank test on the z deviations).
     """
     depth_range = real(depth_range, "depth_range")
-    alpha = real(alpha, "alpha")
+    alpha = check_alpha(alpha)
     margin_fraction = real(margin_fraction, "margin_fraction")
     a, b = _sample(a, "a"), _sample(b, "b")
     if a.shape != b.shape:
@@ -304,11 +321,6 @@ def paired_statistics(
         raise InputError("paired samples contain NaN or infinite values")
     if not (np.isfinite(depth_range) and depth_range > 0):
         raise InputError(f"depth range must be positive and finite, got {depth_range=}")
-    if not 0 < alpha < 0.5:  # the TOST interval's confidence 1 - 2 alpha must be positive
-        raise InputError(
-            "alpha must be in (0, 0.5): the equivalence test's interval has confidence 1 - 2 alpha, "
-            f"got {alpha=}"
-        )
     if not margin_fraction > 0:
         raise InputError(f"equivalence margin must be positive, got {margin_fraction=}")
 

@@ -114,6 +114,9 @@ class Table1Config:
     quick: bool = False
 
     def __post_init__(self) -> None:
+        from replication.stats import check_alpha
+
+        check_alpha(self.alpha)  # (0.6 failed the run after its Monte Carlo clouds, in compare)
         if not self.ns or min(self.ns) < 9:
             raise InputError(f"Table 1 point counts must be >= 9 (a 3 x 3 net), got {self.ns}")
         if self.repeats < 1 or self.mc_seeds < 1 or self.scale_repeats < 1:

@@ -78,7 +78,15 @@ def json_text(patch: NurbsPatch) -> str:
     fresh = NURBS.Surface()  # geomdl's defaults that the file records (delta, rational)
     m_u, m_v = patch.net_shape
     weights = patch.weights.reshape(-1)
-    points = (patch.control_points.reshape(-1, 3) * weights[:, None]) / weights[:, None]
+    with np.errstate(over="ignore"):
+        weighted = patch.control_points.reshape(-1, 3) * weights[:, None]
+    if not np.isfinite(weighted).all():  # geomdl would write Infinity: not JSON, and not the net
+        k = int(np.flatnonzero(~np.isfinite(weighted).all(axis=1))[0])
+        raise InputError(
+            f"control point {k} times its weight overflows float64 (geomdl stores x * w): the net cannot "
+            "be written as geomdl's JSON; write .smesh, which stores the points unweighted"
+        )
+    points = weighted / weights[:, None]
     surface = {
         "type": "spline",
         "rational": fresh.rational,
@@ -113,9 +121,6 @@ def nurbs_format(path: str | os.PathLike[str], fmt: str | None = None) -> str:
             raise InputError(f"cannot tell the NURBS format from {str(path)!r}: use a .smesh or .json suffix")
     if fmt not in NURBS_FORMATS:
         raise InputError(f"unknown NURBS format {fmt!r}; choose one of {NURBS_FORMATS}")
-    suffix = Path(path).suffix.lower().lstrip(".")
-    if suffix in NURBS_FORMATS and suffix != fmt:  # a file its name says is the other format
-        raise InputError(f"{os.fspath(path)!r} names a .{suffix} file, but the format asked for is {fmt}")
     return fmt
 
 
@@ -136,7 +141,11 @@ def write_nurbs(patch: NurbsPatch, path: str | os.PathLike[str], fmt: str | None
         raise InputError(
             f"write_nurbs takes a NurbsPatch or the NurbsSurface of fit_nurbs, got {type(patch).__name__}"
         )
-    if nurbs_format(path, fmt) == "smesh":
+    fmt = nurbs_format(path, fmt)
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix in NURBS_FORMATS and suffix != fmt:  # a file its name says is the other format
+        raise InputError(f"{os.fspath(path)!r} names a .{suffix} file, but the format asked for is {fmt}")
+    if fmt == "smesh":
         return atomic_write_text(path, smesh_text(patch))
     return atomic_write_text(path, json_text(patch))
 

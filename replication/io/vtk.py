@@ -122,7 +122,7 @@ def _mesh(mesh: TriangleMesh, path: str | os.PathLike[str], fmt: SurfaceFormat) 
     if suffix in SURFACE_FORMATS and suffix != fmt:
         raise InputError(
             f"{os.fspath(path)!r} names a .{suffix} file, but the format written is {fmt} "
-            f"({'legacy VTK' if fmt == 'vtk' else 'VTK XML'}): name it .{fmt}, or write .{suffix}"
+            f"({'legacy VTK' if fmt == 'vtk' else 'VTK XML'}): name it .{fmt}, or use write_{suffix}()"
         )
     return mesh
 
@@ -238,14 +238,15 @@ def surface_format(path: str | os.PathLike[str], fmt: str | None = None) -> Surf
             )
     if fmt not in SURFACE_FORMATS:
         raise InputError(f"unknown surface format {fmt!r}; choose one of {SURFACE_FORMATS}")
-    suffix = Path(path).suffix.lower().lstrip(".")
-    if suffix in SURFACE_FORMATS and suffix != fmt:  # XML in a .vtk file: read_surface refused it
-        raise InputError(f"{os.fspath(path)!r} names a .{suffix} file, but the format asked for is {fmt}")
     return fmt  # type: ignore[return-value]
 
 
 def write_surface(mesh: TriangleMesh, path: str | os.PathLike[str], fmt: str | None = None) -> int:
-    """Write a surface as legacy VTK (``.vtk``) or VTK XML (``.vtp``); return bytes written."""
+    """Write a surface as legacy VTK (``.vtk``) or VTK XML (``.vtp``); return bytes written.
+
+    A ``fmt`` that contradicts the suffix (``fmt="vtp"`` for ``x.vtk``) is refused: the file
+    would be misread by every reader that goes by the suffix, :func:`read_surface` included.
+    """
     if surface_format(path, fmt) == "vtk":
         return write_vtk(mesh, path)
     return write_vtp(mesh, path)

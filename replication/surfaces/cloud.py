@@ -179,6 +179,14 @@ def _named_columns(points: object, name: str) -> object:
     if isinstance(points, np.ndarray) and points.dtype.names is not None:
         from pathlib import Path
 
+        mask = np.ma.getmaskarray(points) if isinstance(points, np.ma.MaskedArray) else None
+        hidden = 0 if mask is None else sum(int(np.count_nonzero(mask[field])) for field in mask.dtype.names)
+        if hidden:  # (np.ma.is_masked cannot read a structured mask)
+            raise InputError(
+                f"{name}: {hidden} masked value(s): numpy would use the values hidden under the mask; drop "
+                "those points or fill them first"
+            )
+
         from replication.errors import CloudFileError
         from replication.io.npyclouds import unstructured
 
@@ -198,7 +206,8 @@ def _named_columns(points: object, name: str) -> object:
         order = axis_order(Path(name), [str(c) for c in columns], what="columns")
     except CloudFileError as exc:  # not a file: the error of an argument
         raise InputError(str(exc)) from None
-    return points if order is None else points.iloc[:, order]
+    # (by position through numpy: a frame-like object need not have pandas' .iloc)
+    return points if order is None else np.asarray(points.to_numpy())[:, order]
 
 
 def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
@@ -279,6 +288,9 @@ def underflow(uv: np.ndarray, names: tuple[str, str] = ("u", "v")) -> str | None
         tiny_ones = (magnitude > 0) & (magnitude < math.ldexp(_SQUARE_UNDERFLOW, exponent))
         small = np.flatnonzero(tiny_ones.any(axis=1))
         if small.size == 0:
+            return None
+        rounded = np.where(tiny_ones, 0.0, uv)  # collinear without the tiny parts: a line, not underflow
+        if np.linalg.matrix_rank(rounded - rounded[0]) < 2:
             return None
         k = int(small[0])
         column = int(np.argmax(tiny_ones[k]))

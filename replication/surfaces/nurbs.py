@@ -273,7 +273,11 @@ def _check_built_from(cloud: np.ndarray, surface: Surface) -> None:
     no other point merged into that vertex (a merged depth follows the duplicate policy).
     """
     vertex = np.asarray(surface.vertex_of_input)
-    if vertex.shape != (cloud.shape[0],) or vertex.dtype.kind not in "iu":
+    if (
+        vertex.shape != (cloud.shape[0],)
+        or vertex.dtype.kind not in "iu"
+        or (vertex.size and (int(vertex.min()) < 0 or int(vertex.max()) >= surface.n_vertices))
+    ):
         raise InputError(
             "triangulation.vertex_of_input does not fit the cloud: it was not built by adt() for it"
         )

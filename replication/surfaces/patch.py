@@ -70,10 +70,15 @@ class NurbsPatch:
             ("u", self.knots_u, m_u, self.degree_u),
             ("v", self.knots_v, m_v, self.degree_v),
         ):
-            if knots.shape != (m + p + 1,) or not np.all(np.isfinite(knots)) or np.any(np.diff(knots) < 0):
+            if (
+                knots.shape != (m + p + 1,)
+                or not np.all(np.isfinite(knots))
+                or np.any(np.diff(knots) < 0)
+                or not knots[-1] > knots[0]  # (a zero-width domain: geomdl divided by zero)
+            ):
                 raise InputError(
-                    f"knot vector {name} must be finite and non-decreasing with {m + p + 1} entries, "
-                    f"got {knots.tolist()}"
+                    f"knot vector {name} must be finite, non-decreasing and of positive width with "
+                    f"{m + p + 1} entries, got {knots.tolist()}"
                 )
 
     @property
