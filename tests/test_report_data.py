@@ -264,3 +264,37 @@ def test_a_monte_carlo_summary_that_is_not_its_raw_data_s_is_refused(tmp_path, d
     message = str(caught.value)
     assert message.startswith(f"{path}: {said}"), message
     assert "\n" not in message
+
+
+def test_a_data_file_changed_after_the_save_is_refused_by_name(capsys, quick_reports_copy):
+    """``report`` drew a page from data that had lost a row (a surface missing from the SPH
+    study, a claim missing from the case study), exit 0: each save now records its files'
+    checksums in the provenance, and a file that differs is refused in one line."""
+    import json
+
+    from replication.cli import main
+
+    out = quick_reports_copy
+    sets = sorted((out / "data").glob("*_provenance.json"))
+    assert {p.name for p in sets} >= {"table1_provenance.json", "casestudy_provenance.json"}
+    pages = {p.name: p.read_bytes() for p in out.glob("*.md")}
+    for provenance in sets:
+        files = json.loads(provenance.read_text())["data_files"]
+        assert files and all(len(v["sha256"]) == 64 for v in files.values())
+        name = next(n for n in files if n.endswith(".csv"))
+        path = out / "data" / name
+        original = path.read_bytes()
+        lines = original.splitlines(keepends=True)
+        path.write_bytes(b"".join(lines[:1] + lines[2:]))  # a lost row
+        assert main(["report", "--output-dir", str(out)]) == 1
+        err = capsys.readouterr().err
+        assert f"{path} differs from the file saved with {provenance.name}" in err and err.count("\n") == 1
+        assert {p.name: p.read_bytes() for p in out.glob("*.md")} == pages  # nothing drawn
+        path.write_bytes(original)
+    assert main(["report", "--output-dir", str(out)]) == 0  # the files as saved: drawn as before
+    capsys.readouterr()
+    missing = sets[0]
+    name = next(iter(json.loads(missing.read_text())["data_files"]))
+    (out / "data" / name).unlink()
+    assert main(["report", "--output-dir", str(out)]) == 1
+    assert str(out / "data" / name) in capsys.readouterr().err  # (the loader or the record says so)

@@ -106,3 +106,33 @@ def test_summary_is_the_median_over_clouds(small_run):
     group = small_run[(small_run["n"] == 60) & (small_run["coordinates"] == "lattice")]
     assert row["ratio"].iloc[0] == pytest.approx(float(np.median(group["floor_adt"] / group["floor_nurbs"])))
     assert row["count"].iloc[0] == 3
+
+
+def test_a_data_set_records_the_checksums_of_its_files_and_reading_checks_them(tmp_path):
+    import hashlib
+    import json
+
+    from replication.errors import ReportDataError
+    from replication.report.store import data_set, read_provenance, write_json
+
+    data = tmp_path / "data"
+    with data_set(data, "x_provenance.json") as staged:
+        (staged / "x_a.csv").write_text("a\n1\n2\n")
+        (staged / "sub").mkdir()
+        (staged / "sub" / "m.vtk").write_bytes(b"mesh")
+        write_json({"command": "replication x"}, staged / "x_provenance.json")
+    record = json.loads((data / "x_provenance.json").read_text())
+    assert record["data_files"] == {
+        "sub/m.vtk": {"sha256": hashlib.sha256(b"mesh").hexdigest(), "bytes": 4},
+        "x_a.csv": {"sha256": hashlib.sha256(b"a\n1\n2\n").hexdigest(), "bytes": 6},
+    }
+    assert read_provenance(data, "x_provenance.json", "replication x")["command"] == "replication x"
+    (data / "x_a.csv").write_text("a\n1\n")
+    with pytest.raises(
+        ReportDataError,
+        match=r"x_a.csv differs from the file saved with x_provenance.json .*run `replication x` again",
+    ):
+        read_provenance(data, "x_provenance.json", "replication x")
+    record.pop("data_files")  # a set saved before checksums were recorded: read as it is
+    (data / "x_provenance.json").write_text(json.dumps(record))
+    assert read_provenance(data, "x_provenance.json", "replication x") == record

@@ -26,7 +26,7 @@ from replication.report.figures import clear_figures, figure_files, save_figure
 from replication.report.markdown import fmt, iqr, provenance_section, table, write_report
 from replication.report.parallel import run_figure_tasks
 from replication.report.render3d import render_views
-from replication.report.store import data_set, read_csv, read_json, write_csv, write_json
+from replication.report.store import data_set, read_csv, read_provenance, write_csv, write_json
 
 __all__ = ["save_casestudy_data", "load_casestudy_data", "render_casestudy"]
 
@@ -74,7 +74,7 @@ def load_casestudy_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
         name: read_csv(data / f"casestudy_{name}.csv", COLUMNS[name], strings=TEXT_COLUMNS)
         for name in (*TABLES, "best")
     }
-    loaded["provenance"] = read_json(data / "casestudy_provenance.json")
+    loaded["provenance"] = read_provenance(data, "casestudy_provenance.json", "replication casestudy")
     _check_history(loaded, data / "casestudy_history.csv")
     return loaded
 

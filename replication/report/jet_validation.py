@@ -29,7 +29,7 @@ from replication.report.jet_validation_text import (
     surrogate_section,
 )
 from replication.report.markdown import provenance_section, table, write_report
-from replication.report.store import data_set, read_csv, read_json, write_csv, write_json
+from replication.report.store import data_set, read_csv, read_provenance, write_csv, write_json
 
 __all__ = [
     "OPTIONAL",
@@ -98,7 +98,7 @@ def load_jet_validation_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     for name in OPTIONAL:
         path = data / f"{PREFIX}_{name}.csv"
         loaded[name] = read_csv(path, strings=TEXT_COLUMNS) if path.is_file() else None
-    loaded["provenance"] = read_json(data / f"{PREFIX}_provenance.json")
+    loaded["provenance"] = read_provenance(data, f"{PREFIX}_provenance.json", "replication validate-jet")
     return loaded
 
 

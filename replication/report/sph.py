@@ -14,7 +14,7 @@ import numpy as np
 
 from replication.report.markdown import fmt, provenance_section, table, write_report
 from replication.report.sph_figures import convergence_figure, run_label, series_figure
-from replication.report.store import data_set, read_csv, read_json, write_csv, write_json
+from replication.report.store import data_set, read_csv, read_provenance, write_csv, write_json
 
 __all__ = ["TABLES", "load_sph_data", "render_sph", "save_sph_data"]
 
@@ -38,7 +38,7 @@ def load_sph_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     loaded: dict[str, Any] = {
         name: read_csv(data / f"sph_{name}.csv", strings=TEXT_COLUMNS) for name in TABLES
     }
-    loaded["provenance"] = read_json(data / "sph_provenance.json")
+    loaded["provenance"] = read_provenance(data, "sph_provenance.json", "replication sph")
     return loaded
 
 

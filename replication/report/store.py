@@ -38,6 +38,7 @@ __all__ = [
     "interrupt_deferred",
     "read_csv",
     "read_json",
+    "read_provenance",
     "write_csv",
     "write_json",
 ]
@@ -141,6 +142,63 @@ def _check_rows(text: str) -> None:
 
 def write_json(data: dict[str, Any], path: str | os.PathLike[str]) -> int:
     return atomic_write_text(path, json.dumps(data, indent=2, sort_keys=True, default=str) + "\n")
+
+
+#: The provenance's record of its data set's files: name -> {"sha256", "bytes"} (see data_set).
+DATA_FILES = "data_files"
+
+
+def _digest(path: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _record_files(staging: Path, provenance: str, staged: list[Path]) -> None:
+    """Add to the staged provenance the checksum and size of every other file of the set, so
+    that a file changed after the save (a lost row, an edited number) is found when the report
+    is drawn (:func:`read_provenance`): ``report`` drew a page with a surface missing, exit 0."""
+    record = read_json(staging / provenance)
+    record[DATA_FILES] = {
+        name.as_posix(): {"sha256": _digest(staging / name), "bytes": (staging / name).stat().st_size}
+        for name in staged
+        if name != Path(provenance)
+    }
+    write_json(record, staging / provenance)
+
+
+def read_provenance(data: str | os.PathLike[str], provenance: str, command: str) -> dict[str, Any]:
+    """The provenance record of a data set, after checking its files against the checksums it
+    records (a set saved before they were recorded is read as it is).
+
+    Raises
+    ------
+    ReportDataError
+        A file of the set is missing or differs from what was saved (a lost or edited row):
+        the report would draw other numbers than the run computed. ``command`` is the one that
+        makes the data again.
+    """
+    data = Path(data)
+    record = read_json(data / provenance)
+    files = record.get(DATA_FILES)
+    if files is None:
+        return record
+    if not isinstance(files, dict):
+        raise ReportDataError(
+            f"{data / provenance}: its {DATA_FILES} record is not a mapping; run `{command}` again"
+        )
+    for name, saved in files.items():
+        path = data / name
+        if not path.is_file():
+            raise ReportDataError(
+                f"{path} is missing from the data set {provenance} records; run `{command}` again"
+            )
+        if not isinstance(saved, dict) or _digest(path) != saved.get("sha256"):
+            raise ReportDataError(
+                f"{path} differs from the file saved with {provenance} (its checksum does not match: a lost "
+                f"or edited row?), so the report would not show what the run computed; run `{command}` again"
+            )
+    return record
 
 
 def read_json(path: str | os.PathLike[str]) -> dict[str, Any]:
@@ -289,6 +347,7 @@ def data_set(data: Path, provenance: str, *, stale: Iterable[str] = ()) -> Itera
         staged = sorted(p.relative_to(staging) for p in staging.rglob("*") if p.is_file())
         if Path(provenance) not in staged:
             raise ValueError(f"the staged data set has no provenance {provenance}")
+        _record_files(staging, provenance, staged)
         published = False
         try:
             with _publishing(data), interrupt_deferred():

@@ -24,7 +24,7 @@ from replication.report.figures import clear_figures, fig6, figure_files, scale_
 from replication.report.markdown import fmt, iqr, provenance_section, table, write_report
 from replication.report.parallel import run_figure_tasks
 from replication.report.render3d import render_views
-from replication.report.store import data_set, read_csv, read_json, write_csv, write_json
+from replication.report.store import data_set, read_csv, read_provenance, write_csv, write_json
 
 __all__ = ["TABLES", "save_table1_data", "load_table1_data", "render_table1"]
 
@@ -112,7 +112,7 @@ def load_table1_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     loaded: dict[str, Any] = {
         name: read_csv(data / f"table1_{name}.csv", strings=TEXT_COLUMNS) for name in TABLES
     }
-    loaded["provenance"] = read_json(data / "table1_provenance.json")
+    loaded["provenance"] = read_provenance(data, "table1_provenance.json", "replication table1")
     ns = [int(n) for n in loaded["provenance"].get("config", {}).get("ns", [])]
     if ns:
         for name, keys in GRIDS.items():
