@@ -212,6 +212,7 @@ def worker_initializer(parent: int | None = None) -> None:
     if hasattr(signal, "pthread_sigmask"):  # POSIX
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
     from replication.casestudy.rundir import close_inherited_locks
+    from replication.io import locks
     from replication.surfaces._threads import one_thread
     from replication.threadlimits import limit_worker_blas
 
@@ -219,6 +220,7 @@ def worker_initializer(parent: int | None = None) -> None:
     if parent is not None:
         end_with_parent(parent)
     close_inherited_locks()
+    locks.close_inherited_locks()  # (the reports directory's)
     limit_worker_blas()
     one_thread()
     exit_on_terminate()

@@ -27,6 +27,7 @@ from collections.abc import Callable, Iterable, Sequence
 from typing import IO, NoReturn
 
 from replication.errors import ReplicationError, UsageError, escaped, shortened
+from replication.io.locks import held_until_the_command_ends
 from replication.sigterm import EXIT_STATUS as SIGTERM_EXIT
 from replication.sigterm import sigterm_interrupts, terminated
 
@@ -314,7 +315,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if stdout is not None:  # None when the standard output is closed (>&-): print() drops the text
         sys.stdout = _GuardedStdout(stdout)  # type: ignore[assignment]
     try:
-        with sigterm_interrupts():  # SIGTERM stops the command as Ctrl-C does (replication.sigterm)
+        # SIGTERM stops the command as Ctrl-C does (replication.sigterm); the reports directory
+        # it holds is released when it ends (replication.io.locks)
+        with sigterm_interrupts(), held_until_the_command_ends():
             status = func(args)
         if sys.stdout is not None:
             sys.stdout.flush()  # a file's full disk shows here, not as "Exception ignored" at exit

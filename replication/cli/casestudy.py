@@ -246,6 +246,9 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     what = "--output-dir" if args.output_dir else "the reports directory"
     check_report_dir(out, what)
     check_pages(out, what, ("casestudy.md", "index.md"))
+    from replication.io.locks import hold_reports_dir
+
+    hold_reports_dir(out, what)  # (two runs into one directory left one's page over the other's data)
     from replication.experiments.casestudy import quick_ga_config
 
     hint = ["replication", "casestudy", "--run-dir", str(run_dir), "--resume"]

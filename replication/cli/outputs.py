@@ -24,6 +24,7 @@ import re
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from replication.io.locks import hold_reports_dir
 from replication.io.paths import REPORT_SUBDIRS, check_report_dir
 
 __all__ = [
@@ -64,6 +65,7 @@ def planned_output_dir(
     if explicit:
         check_not_committed(out, [*(["--quick"] if quick else []), *custom])
     what = "--output-dir" if explicit else "the reports directory"
+    hold_reports_dir(out, what)
     check_report_dir(out, what, subdirs)
     check_pages(out, what, pages(out) if callable(pages) else pages)
     return out

@@ -181,6 +181,9 @@ def _cmd_report(args: argparse.Namespace) -> int:
     written_dirs = ("figures", "data") if results is not None else ("figures",)
     what = "--output-dir" if args.output_dir else "the reports directory"
     check_report_dir(out, what, written_dirs)
+    from replication.io.locks import hold_reports_dir
+
+    hold_reports_dir(out, what)
     if (out / "data").is_dir():  # a save killed while it published its data set: finish it first
         recover_data_sets(out / "data")
     readme = _check_readme(args.readme, out) if args.readme else None

@@ -1,0 +1,100 @@
+"""A command's hold on the reports directory it writes: one writer at a time.
+
+Two commands writing reports into one directory at once interleaved their saves and pages:
+``casestudy --quick --seed 1 --output-dir mix`` and ``--seed 2`` beside it left seed 1's page
+over seed 2's data, both with exit 0. Each data set is published whole (a lock on its
+``data/``), but a page is drawn from the data after the save, so the pair must not mix.
+
+:func:`hold_reports_dir` takes an exclusive ``flock`` on a lock file named after the
+directory's resolved path, in the system's temporary directory (no file among the reports,
+and the directory need not exist yet), for as long as the command runs
+(:func:`held_until_the_command_ends`); a second command is refused at once. The system
+releases the lock when the process ends, however it ends. Where ``fcntl`` is missing, or the
+lock file cannot be opened (another user's), the directory is not guarded, as before.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import os
+from collections.abc import Iterator
+from pathlib import Path
+
+from replication.errors import OutputError
+
+__all__ = ["close_inherited_locks", "held_until_the_command_ends", "hold_reports_dir"]
+
+_STACK: contextvars.ContextVar[contextlib.ExitStack | None] = contextvars.ContextVar("_STACK", default=None)
+#: The directories this process holds (their resolved paths), and the lock descriptors.
+_HELD: dict[str, int] = {}
+
+
+@contextlib.contextmanager
+def held_until_the_command_ends() -> Iterator[None]:
+    """Release the holds :func:`hold_reports_dir` takes inside the block when it ends."""
+    with contextlib.ExitStack() as stack:
+        token = _STACK.set(stack)
+        try:
+            yield
+        finally:
+            _STACK.reset(token)
+
+
+def _lock_file(key: str) -> Path:
+    import hashlib  # (here, not at import: every command's start-up imports this module)
+    import tempfile
+
+    digest = hashlib.sha256(key.encode()).hexdigest()[:20]
+    return Path(tempfile.gettempdir()) / f"replication-reports-{digest}.lock"
+
+
+def hold_reports_dir(out: str | os.PathLike[str], what: str = "--output-dir") -> None:
+    """Hold the reports directory ``out`` for the running command (reentrant: ``reproduce``
+    holds it for the reports it draws one after the other). Outside a command, nothing is held.
+
+    Raises
+    ------
+    OutputError
+        Another command holds it.
+    """
+    stack = _STACK.get()
+    key = str(Path(os.path.abspath(out)).resolve())
+    if stack is None or key in _HELD:
+        return
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not on POSIX
+        return
+    try:
+        fd = os.open(_lock_file(key), os.O_RDONLY | os.O_CREAT, 0o644)
+    except OSError:  # pragma: no cover - another user's lock file, a read-only /tmp
+        return
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(fd)
+        raise OutputError(
+            f"{what} {out} is in use by another command writing its reports there; wait for it to end, "
+            "or name another --output-dir"
+        ) from None
+    except OSError:  # pragma: no cover - a file system without locks
+        os.close(fd)
+        return
+    _HELD[key] = fd
+
+    def release() -> None:
+        if _HELD.pop(key, None) is not None:
+            with contextlib.suppress(OSError):
+                os.close(fd)
+
+    stack.callback(release)
+
+
+def close_inherited_locks() -> None:
+    """In a forked worker: close the copies of the parent's holds (a worker that outlived a
+    killed parent kept its reports directory held)."""
+    for fd in list(_HELD.values()):
+        with contextlib.suppress(OSError):
+            os.close(fd)
+    _HELD.clear()
