@@ -205,6 +205,39 @@ def test_casestudy_rescore_runs_end_to_end_and_resumes_from_the_cache(
     assert [r["sph_N"] for r in again["rescore"]] == [r["sph_N"] for r in first["rescore"]]
 
 
+def test_a_plain_resume_continues_the_runs_rescoring_and_other_options_are_refused(
+    tmp_path, monkeypatch, capsys, fake_engine
+):
+    # was: `casestudy --run-dir run --resume` dropped the SPH step and wrote its report into
+    # the directory its settings alone chose (another run's report); --resume --top 3 of a
+    # run with --top 2 was accepted
+    monkeypatch.chdir(tmp_path)
+    first = [*TINY, "--run-dir", "run", "--output-dir", "out", "--rescore", "sph", "--top", "2",
+             "--particle-radius", "1", "--duration", "16", "--cache-dir", "cache", "--json"]  # fmt: skip
+    assert main(first) == 0
+    rescored = json.loads(capsys.readouterr().out)["rescore"]
+    assert json.loads((tmp_path / "run" / "rescore.json").read_text()) == {
+        "cache_dir": "cache", "duration": 16.0, "particle_radius": 1.0, "rescore": "sph", "top": 2
+    }  # fmt: skip
+    CALLS.clear()
+    assert main(["casestudy", "--run-dir", "run", "--resume", "--output-dir", "out", "--json"]) == 0
+    again = json.loads(capsys.readouterr().out)
+    assert [r["sph_N"] for r in again["rescore"]] == [r["sph_N"] for r in rescored] and CALLS == []
+    for extra, named in (
+        (["--top", "3"], "--top 3 (the run has 2)"),
+        (["--duration", "20"], "--duration 20 (the run has 16.0)"),
+        (["--solver", "sph"], "--solver sph"),
+    ):
+        assert main(["casestudy", "--run-dir", "run", "--resume", *extra]) == 1
+        err = capsys.readouterr().err
+        assert (
+            "holds a run re-scored with other SPH options: " in err and named in err and err.count("\n") == 1
+        )
+    (tmp_path / "run" / "rescore.json").write_text("{not json")
+    assert main(["casestudy", "--run-dir", "run", "--resume"]) == 1
+    assert "rescore.json: not a readable record of the run's --rescore options" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(
     ("extra", "message"),
     [

@@ -26,15 +26,18 @@ from typing import Any
 
 from replication.cli.casestudy_sph import (
     FITNESS_NAME,
+    RESCORE_NAME,
     add_rescore_options,
     check_fitness_record,
     report_rescored,
     rescore_config,
     rescore_hint,
     rescore_summary,
+    restore_rescore,
     solver_record,
     sph_fitness,
     write_fitness_record,
+    write_rescore_record,
 )
 from replication.cli.common import (
     directory_name,
@@ -187,6 +190,8 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     from replication.report.pages import check_pages, report_page_in
 
     check_executor_options(args.executor, args.workers, args.scheduler)
+    if args.resume and args.run_dir:  # the run's own --rescore options, before they are checked
+        restore_rescore(args, Path(args.run_dir))
     rescore = rescore_config(args, _requested_config(args))
     if args.resume:
         if not args.run_dir:
@@ -215,7 +220,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
                     f"{run_dir} holds a run with other settings: resume it with --resume, or use a new run "
                     "directory"
                 )
-            others = foreign_entries(run_dir, own=(FITNESS_NAME, "report"))
+            others = foreign_entries(run_dir, own=(FITNESS_NAME, RESCORE_NAME, "report"))
             if others:  # as force --run-dir: the run's files do not go among a user's own
                 shown = ", ".join(others[:3]) + (", ..." if len(others) > 3 else "")
                 raise InputError(
@@ -292,6 +297,7 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
             action = "resuming" if plan.resume else "after an interruption, resume with"
             print(f"GA run directory: {plan.run_dir} ({action}: {plan.hint})", file=sys.stderr)
             write_fitness_record(plan.run_dir, plan.solver)
+            write_rescore_record(plan.run_dir, args)
             with Progress(
                 config.runs * config.generations, "GA generations", initial=plan.done_generations
             ) as bar:

@@ -17,6 +17,8 @@ from replication.cli.common import directory_name, positive_int
 SPH_OPTIONS = ("top", "particle_radius", "duration", "sph_timeout", "cache_dir")
 #: The record of a run's fitness in its run directory (absent: the thin-sheet model).
 FITNESS_NAME = "fitness.json"
+#: The ``--rescore`` options of a run, so that ``--resume`` continues with them.
+RESCORE_NAME = "rescore.json"
 #: An estimate above this many hours is refused without --yes.
 CONFIRM_HOURS = 1.0
 
@@ -248,3 +250,74 @@ def sph_fitness(plan: Any, args: argparse.Namespace, workers: int) -> Any:
             "coarsen with --particle-radius, --duration or fewer --runs/--generations/--population"
         )
     return fitness
+
+
+def _rescore_options(args: argparse.Namespace) -> dict[str, Any]:
+    return {
+        name: getattr(args, name)
+        for name in ("rescore", *SPH_OPTIONS)
+        if getattr(args, name, None) is not None
+    }
+
+
+def write_rescore_record(run_dir: Any, args: argparse.Namespace) -> None:
+    """Record the ``--rescore`` options in the run directory (nothing without ``--rescore``)."""
+    import json
+    from pathlib import Path
+
+    from replication.io.atomic import atomic_write_text
+
+    if getattr(args, "rescore", None) is not None:
+        atomic_write_text(
+            Path(run_dir) / RESCORE_NAME, json.dumps(_rescore_options(args), sort_keys=True) + "\n"
+        )
+
+
+def restore_rescore(args: argparse.Namespace, run_dir: Any) -> None:
+    """On ``--resume``, take the run's recorded ``--rescore`` options.
+
+    A plain ``--resume`` of a run started with ``--rescore sph`` dropped the re-scoring and,
+    its settings then looking like the paper's or the quick ones, wrote its report over
+    another run's (a new-user audit); ``--resume --top 3`` was accepted though the run had 2.
+    Options given with ``--resume`` must match the recorded ones, as the GA's settings must.
+    A run recorded without ``--rescore`` may be re-scored on resume.
+
+    Raises
+    ------
+    InputError
+        An option given that differs from the recorded one, or an unreadable record.
+    """
+    import json
+    from pathlib import Path
+
+    from replication.errors import InputError
+
+    path = Path(run_dir) / RESCORE_NAME
+    if not path.is_file():
+        return
+    try:
+        recorded = json.loads(path.read_text(encoding="utf-8"))
+        if not isinstance(recorded, dict) or recorded.get("rescore") != "sph":
+            raise ValueError("not a --rescore record")
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{path}: not a readable record of the run's --rescore options ({exc})") from None
+    given = _rescore_options(args)
+    differ = [
+        f"--{name.replace('_', '-')} {value:g} (the run has {recorded.get(name, 'its default')})"
+        if isinstance(value, float)
+        else f"--{name.replace('_', '-')} {value} (the run has {recorded.get(name, 'its default')})"
+        for name, value in given.items()
+        if recorded.get(name) != value
+    ]
+    if getattr(args, "solver", None) == "sph":
+        differ.insert(
+            0, "--solver sph (the run's GA was scored by the thin-sheet model and re-scored by SPH)"
+        )
+    if differ:
+        raise InputError(
+            f"{run_dir} holds a run re-scored with other SPH options: {', '.join(differ)}; resume without "
+            "them to continue it with its recorded ones, or start a new run directory"
+        )
+    for name, value in recorded.items():
+        if name in ("rescore", *SPH_OPTIONS):
+            setattr(args, name, value)
