@@ -21,6 +21,20 @@ from replication.report.store import read_csv, write_csv
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def _unsealed(data):
+    """The copied data sets without the checksums their saves recorded, as sets saved before
+    checksums were: these tests damage the data on purpose, to show that each file's own checks
+    still refuse the damage, naming its line and column (a changed file of a set with checksums
+    is refused before them, by name: test_a_data_file_changed_after_the_save_is_refused_by_name)."""
+    import json
+
+    for provenance in data.glob("*_provenance.json"):
+        record = json.loads(provenance.read_text())
+        record.pop("data_files", None)
+        provenance.write_text(json.dumps(record, indent=2, sort_keys=True) + "\n")
+    return data
+
+
 @pytest.fixture
 def casestudy_data(tmp_path):
     """A copy of the committed case-study data."""
@@ -28,7 +42,7 @@ def casestudy_data(tmp_path):
     data.mkdir()
     for path in (ROOT / "reports" / "data").glob("casestudy_*"):
         shutil.copy(path, data / path.name)
-    return data
+    return _unsealed(data)
 
 
 def _edit(path, change):
@@ -148,7 +162,7 @@ def test_a_damaged_number_in_any_report_names_its_file_line_and_column(tmp_path,
     """table1 and sph failed naming neither file nor column; the jet validation drew its page."""
     data = tmp_path / "data"
     ignored = shutil.ignore_patterns("*meshes*", "performance*")
-    shutil.copytree(ROOT / "reports" / "data", data, ignore=ignored)
+    _unsealed(shutil.copytree(ROOT / "reports" / "data", data, ignore=ignored))
     path = data / f"{report}_{table}.csv"
     frame = pd.read_csv(path)
     assert pd.api.types.is_numeric_dtype(frame[column]) and len(frame) > 1
@@ -172,7 +186,7 @@ def test_a_failed_simulation_s_reason_is_text_not_damage(tmp_path, report, table
     """A report with a failed SPH run was refused: its reason was taken for a damaged number."""
     data = tmp_path / "data"
     ignored = shutil.ignore_patterns("*meshes*", "performance*")
-    shutil.copytree(ROOT / "reports" / "data", data, ignore=ignored)
+    _unsealed(shutil.copytree(ROOT / "reports" / "data", data, ignore=ignored))
     path = data / f"{report}_{table}.csv"
     frame = pd.read_csv(path)
     frame[reason] = frame[reason].astype(object)
@@ -200,7 +214,7 @@ def test_a_table1_table_that_is_not_whole_is_refused_saying_what_it_lacks(tmp_pa
 
     data = tmp_path / "data"
     ignored = shutil.ignore_patterns("*meshes*", "performance*")
-    shutil.copytree(ROOT / "reports" / "data", data, ignore=ignored)
+    _unsealed(shutil.copytree(ROOT / "reports" / "data", data, ignore=ignored))
     path = data / f"table1_{table}.csv"
     lines = path.read_text().splitlines(keepends=True)
     if damage == "delete":
@@ -234,7 +248,7 @@ def test_a_monte_carlo_summary_that_is_not_its_raw_data_s_is_refused(tmp_path, d
 
     data = tmp_path / "data"
     ignored = shutil.ignore_patterns("*meshes*", "performance*")
-    shutil.copytree(ROOT / "reports" / "data", data, ignore=ignored)
+    _unsealed(shutil.copytree(ROOT / "reports" / "data", data, ignore=ignored))
     path = data / "table1_montecarlo.csv"
     load_table1_data(tmp_path)  # whole as committed
     lines = path.read_text().splitlines(keepends=True)
@@ -298,3 +312,12 @@ def test_a_data_file_changed_after_the_save_is_refused_by_name(capsys, quick_rep
     (out / "data" / name).unlink()
     assert main(["report", "--output-dir", str(out)]) == 1
     assert str(out / "data" / name) in capsys.readouterr().err  # (the loader or the record says so)
+
+
+def test_the_committed_data_sets_match_the_checksums_their_saves_recorded():
+    from replication.report.store import read_provenance
+
+    data = ROOT / "reports" / "data"
+    for prefix, command in (("table1", "replication table1"), ("casestudy", "replication casestudy")):
+        record = read_provenance(data, f"{prefix}_provenance.json", command)  # raises on a mismatch
+        assert record["data_files"] and all(name.startswith(prefix) for name in record["data_files"])
