@@ -34,7 +34,13 @@ from replication.errors import ExecutorError, InputError
 from replication.io.atomic import interrupt_deferred
 from replication.sigterm import terminating
 
-__all__ = ["CONNECT_TIMEOUT_S", "check_scheduler_address", "dask_executor", "require_dask"]
+__all__ = [
+    "CONNECT_TIMEOUT_S",
+    "check_scheduler_address",
+    "check_scheduler_reachable",
+    "dask_executor",
+    "require_dask",
+]
 
 #: Seconds to wait for a dask scheduler named by its address before giving up.
 CONNECT_TIMEOUT_S = 5.0
@@ -76,10 +82,17 @@ def check_scheduler_address(scheduler: str) -> str:
     return address
 
 
-def _connect(scheduler: str):  # type: ignore[no-untyped-def]
-    """A dask Client of the scheduler at ``scheduler``, or a one-line error quickly."""
-    from dask.distributed import Client
+def check_scheduler_reachable(scheduler: str) -> str:
+    """The scheduler's address, after a TCP connection to it (a refused one fails at once).
 
+    Called before a command makes its run directory and prints how to resume the run: an
+    unreachable scheduler printed a resume command for a directory it then removed.
+
+    Raises
+    ------
+    ExecutorError
+        Nothing listens at a ``tcp://`` address (other protocols are tried by dask itself).
+    """
     address = check_scheduler_address(scheduler)
     if address.startswith("tcp://"):  # a refused connection fails at once, not after the timeout
         from distributed.comm import get_address_host_port
@@ -92,6 +105,14 @@ def _connect(scheduler: str):  # type: ignore[no-untyped-def]
                 f"cannot reach a dask scheduler at {scheduler}: {exc.strerror or exc}; is it running, and is "
                 "the address right?"
             ) from exc
+    return address
+
+
+def _connect(scheduler: str):  # type: ignore[no-untyped-def]
+    """A dask Client of the scheduler at ``scheduler``, or a one-line error quickly."""
+    from dask.distributed import Client
+
+    address = check_scheduler_reachable(scheduler)
     try:
         return Client(scheduler, timeout=CONNECT_TIMEOUT_S)
     except (OSError, TimeoutError) as exc:

@@ -190,6 +190,10 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     from replication.report.pages import check_pages, report_page_in
 
     check_executor_options(args.executor, args.workers, args.scheduler)
+    if args.scheduler is not None:  # before the run directory and its resume command
+        from replication.casestudy.cluster import check_scheduler_reachable
+
+        check_scheduler_reachable(args.scheduler)
     if args.resume and args.run_dir:  # the run's own --rescore options, before they are checked
         restore_rescore(args, Path(args.run_dir))
     rescore = rescore_config(args, _requested_config(args))
