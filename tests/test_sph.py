@@ -125,3 +125,16 @@ def test_result_round_trips_through_json(flat_full):
         assert getattr(back, name) == getattr(flat_full, name), name
     np.testing.assert_array_equal(back.force, flat_full.force)
     assert read_result(Path(flat_full.run_dir) / "result.json").mean_axial == flat_full.mean_axial
+
+
+def test_a_duration_whose_jet_needs_more_particles_than_memory_holds_is_refused_at_once():
+    # was: --duration 1e9 set up for 47 s, then "not enough memory: Unable to allocate 259. GiB"
+    from replication.casestudy.sph.settings import MAX_JET_PARTICLES, SPHSettings, timeline
+    from replication.errors import InputError
+
+    assert MAX_JET_PARTICLES >= 1000 * 6545  # the paper's 20 ms at r = 0.75 mm: 6,545 particles
+    timeline(SPHSettings(), 4.34, 0.018)
+    with pytest.raises(
+        InputError, match=r"SPH duration 1e\+09 ms makes a water column 4.34e\+06 m long: about 1.7"
+    ):
+        timeline(SPHSettings(duration=1e6, particle_radius=2e-3), 4.34, 0.018)
