@@ -317,7 +317,7 @@ def test_solver_sph_scores_every_individual_and_resumes_from_its_checkpoints(
     assert json.loads(capsys.readouterr().out)["runs"] == out["runs"] and CALLS == []
     assert main([*TINY, "--run-dir", "run", "--resume"]) == 1
     assert (
-        "scored by SPH (duration 0.016, particle_radius 0.001), not the thin-sheet model"
+        "scored by SPH (--duration 16 ms, --particle-radius 1 mm), not the thin-sheet model"
         in capsys.readouterr().err
     )
 

@@ -138,9 +138,10 @@ def _default_report_dir(config: Any, run_dir: Path) -> tuple[Path, str]:
     if config == quick_ga_config():
         return Path(QUICK_DIR), ""
     differ = "; ".join(differences_from_paper(config.as_dict()))
+    # (settings that differ from the quick ones too: the report is neither reports/'s nor reports-quick/'s)
     return run_dir / "report", (
         f"settings differ from the paper's ({differ}): the report goes to {run_dir / 'report'}/, "
-        f"not {DEFAULT_DIR}/ (name a directory with --output-dir)"
+        f"not {DEFAULT_DIR}/ or {QUICK_DIR}/ (name a directory with --output-dir)"
     )
 
 

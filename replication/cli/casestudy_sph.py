@@ -50,7 +50,11 @@ def add_rescore_options(p: argparse.ArgumentParser) -> None:
         "--particle-radius", type=positive_float, metavar="R", help="SPH particle radius in mm (default 0.75)"
     )
     g.add_argument(
-        "--duration", type=positive_float, metavar="T", help="SPH simulated time in ms (default 20)"
+        "--duration",
+        type=positive_float,
+        metavar="T",
+        help="SPH simulated time in ms (default 20; at least about 15 for the paper's jet: the force is "
+        "averaged over a quasi-steady window after the impact)",
     )
     g.add_argument(
         "--sph-timeout", type=positive_float, metavar="S", help="wall-clock limit of one simulation (s, 1800)"
@@ -196,7 +200,9 @@ def check_fitness_record(run_dir: Any, record: dict[str, Any] | None, resume: bo
             if r is None:
                 return "the thin-sheet model"
             changed = {k: v for k, v in r.get("settings", {}).items() if v != defaults.get(k)}
-            return "SPH (" + (", ".join(f"{k} {v}" for k, v in sorted(changed.items())) or "defaults") + ")"
+            return (
+                "SPH (" + (", ".join(_as_given(k, v) for k, v in sorted(changed.items())) or "defaults") + ")"
+            )
 
         from replication.casestudy.sph.settings import SPHSettings
 
@@ -206,6 +212,19 @@ def check_fitness_record(run_dir: Any, record: dict[str, Any] | None, resume: bo
             f"{run_dir} holds a run scored by {name(recorded)}, not {name(record)}: resume it with its "
             "own --solver and SPH options, or start a new run directory"
         )
+
+
+#: The SPH settings the command line gives in other units than the record's SI ones.
+_OPTION_UNITS = {"particle_radius": ("--particle-radius", 1e3, "mm"), "duration": ("--duration", 1e3, "ms")}
+
+
+def _as_given(name: str, value: Any) -> str:
+    """A recorded SPH setting as the command line gives it (``--duration 15 ms``, not
+    ``duration 0.015``), or by its name when the command line has no option for it."""
+    if name in _OPTION_UNITS and isinstance(value, (int, float)):
+        option, scale, unit = _OPTION_UNITS[name]
+        return f"{option} {value * scale:g} {unit}"
+    return f"{name} {value}"
 
 
 def write_fitness_record(run_dir: Any, record: dict[str, Any] | None) -> None:

@@ -211,8 +211,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "force",
         help="force of the case study's water jet on a surface (paper section 6)",
         description=(
-            "Force of a water jet on a faceted height-field surface z(x, y), by a fast inviscid "
-            "thin-sheet momentum balance standing in for the paper's SPH simulation."
+            "Force of a water jet on a faceted height-field surface z(x, y): by default a fast inviscid "
+            "thin-sheet momentum balance (milliseconds), or with --solver sph an SPH simulation, the "
+            "paper's method (seconds to minutes)."
         ),
         epilog=EPILOG_FORCE,
         formatter_class=argparse.RawDescriptionHelpFormatter,

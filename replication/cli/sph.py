@@ -48,7 +48,13 @@ def add_force_options(p: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--particle-radius", type=positive_float, metavar="R", help="particle radius in mm (default 0.75)"
     )
-    g.add_argument("--duration", type=positive_float, metavar="T", help="simulated time in ms (default 20)")
+    g.add_argument(
+        "--duration",
+        type=positive_float,
+        metavar="T",
+        help="simulated time in ms (default 20; at least about 15 for the paper's jet, more for a slower "
+        "one: the force is averaged over a quasi-steady window after the impact)",
+    )
     g.add_argument(
         "--sph-method",
         choices=("dfsph", "wcsph"),

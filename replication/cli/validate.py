@@ -183,7 +183,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="DIR",
         help=(
             f"where the report, figures and data go (default {DEFAULT_DIR}/, or {QUICK_DIR}/ with --quick; "
-            "required with --timeout or --ga-run-dir, which can give another study than the committed one)"
+            "without --quick, required with --timeout or --ga-run-dir, which can give another study than the "
+            "committed one)"
         ),
     )
     p.set_defaults(func=_cmd_validate)
