@@ -67,3 +67,54 @@ def test_ctrl_c_ends_an_abandoning_pool_at_once_and_leaves_no_worker():
     for pid in map(int, done.stdout.split()):
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)  # ended (and reaped by the parent before it exited)
+
+
+@pytest.mark.skipif(not __import__("replication.casestudy.sph", fromlist=["x"]).engine_available(),
+                    reason='the SPH engine is not installed (pip install ".[sph]")')  # fmt: skip
+def test_a_study_stopped_by_ctrl_c_keeps_its_finished_simulations_in_the_cache(tmp_path, monkeypatch):
+    """`replication sph` kept nothing of a run stopped by Ctrl-C: a full study starts over."""
+    from replication.casestudy import sph_batch
+    from replication.casestudy.sph import sph_force
+
+    quick = SPHStudyConfig.quick()
+    finished: list[str] = []
+
+    def stop_after_two(label: str) -> None:
+        finished.append(label)
+        if len(finished) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_sph_study(quick, cache_dir=tmp_path / "cache", on_run=stop_after_two)
+    assert len(list((tmp_path / "cache").glob("??/*"))) == 2
+    simulated: list[int] = []
+
+    def counting(*args, **kwargs):
+        simulated.append(1)
+        return sph_force(*args, **kwargs)
+
+    monkeypatch.setattr("replication.casestudy.sph.sph_force", counting)
+    again = run_sph_study(quick, cache_dir=tmp_path / "cache")
+    assert len(simulated) == len(quick.runs()) - 2  # only what was missing
+    fresh = run_sph_study(quick)  # no cache: the same study
+    for name in ("series", "shapes", "hypotheses"):
+        pd.testing.assert_frame_equal(getattr(again, name), getattr(fresh, name))
+    columns = [c for c in fresh.runs.columns if not c.startswith("wall_s")]  # (timings)
+    pd.testing.assert_frame_equal(again.runs[columns], fresh.runs[columns])
+    assert sph_batch.code_digest()  # (the cache's key includes the SPH code)
+
+
+def test_the_sph_command_says_where_an_interrupted_study_s_simulations_are(tmp_path, monkeypatch, capsys):
+    from replication.cli import main
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("replication.casestudy.sph.require_engine", lambda: "2.19.0")
+    monkeypatch.setattr("replication.experiments.sph.run_sph_study", interrupted)
+    monkeypatch.chdir(tmp_path)
+    assert main(["sph", "--quick", "--workers", "1", "--cache-dir", "cache"]) == 130
+    err = capsys.readouterr().err
+    assert (
+        "interrupted: the simulations that finished are kept in the SPH cache cache; the same command" in err
+    )

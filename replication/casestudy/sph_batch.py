@@ -49,6 +49,7 @@ __all__ = [
     "Scored",
     "SurfaceTask",
     "cache_key",
+    "cached_sph_force",
     "code_digest",
     "entry_path",
     "read_entry",
@@ -232,6 +233,33 @@ def _simulate_into_cache(
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
     return dataclasses.replace(result, run_dir=str(final))
+
+
+def cached_sph_force(
+    points: np.ndarray,
+    triangles: np.ndarray,
+    jet: JetConfig,
+    settings: Any,
+    *,
+    cache_dir: str | os.PathLike[str],
+    timeout: float | None = None,
+    name: str = "surface",
+) -> Any:
+    """:func:`~.sph.sph_force` through the cache: the entry's result when there is one (a
+    failure included, unless it timed out under a shorter limit), else simulated here and
+    published into the cache, so that a run stopped by Ctrl-C keeps every simulation it
+    finished (the SPH study kept none).
+    """
+    from replication.casestudy.sph import DEFAULT_TIMEOUT
+
+    timeout = DEFAULT_TIMEOUT if timeout is None else timeout
+    key = cache_key(points, triangles, jet, settings)
+    result = read_entry(cache_dir, key)
+    if result is not None and not (result.status == "timeout" and result.wall_seconds < 0.99 * timeout):
+        return result
+    Path(cache_dir).mkdir(parents=True, exist_ok=True)
+    task = SurfaceTask(name, points, triangles)
+    return _simulate_into_cache(task, jet, settings, str(cache_dir), key, timeout, None)
 
 
 def score_surfaces(

@@ -294,7 +294,7 @@ def _cmd_sph(args: argparse.Namespace) -> int:
     check_temporary_dir_utf8()  # its simulations run in temporary directories
     require_engine()
     start = time.perf_counter()
-    path = run_sph_report(out, args.quick, args.invocation, args.workers)
+    path = run_sph_report(out, args.quick, args.invocation, args.workers, args.cache_dir)
     written = finish_reports(out)
     print(f"wrote {path} ({time.perf_counter() - start:.1f} s; data in {out / 'data'})")
     for readme in written[1:]:
@@ -302,14 +302,20 @@ def _cmd_sph(args: argparse.Namespace) -> int:
     return 0
 
 
-def run_sph_report(out: Path, quick: bool, command: str, workers: int | None = None) -> Path:
+def run_sph_report(
+    out: Path, quick: bool, command: str, workers: int | None = None, cache_dir: str | None = None
+) -> Path:
     """Run the SPH study (quick or full) into ``out`` and render ``sph.md``.
 
     ``workers`` simulations run at once (default: 2, or 1 on a single CPU), each driven from a
-    worker process of its own; 1 runs them one after another in this process. Ctrl-C ends
-    the simulations under way at once: the study keeps nothing of an unfinished run.
+    worker process of its own; 1 runs them one after another in this process. Every finished
+    simulation is kept in the SPH cache ``cache_dir`` (default: that of ``validate-jet``,
+    ``$REPLICATION_SPH_CACHE`` or ``.sph-cache``) as it finishes, and a rerun takes it from
+    there. Ctrl-C ends the simulations under way at once and says that the finished ones are
+    kept (the study used to keep none of them).
     """
     from replication.casestudy.evaluate import executor
+    from replication.casestudy.sph_batch import default_cache_dir
     from replication.cli.progress import progress
     from replication.cpus import usable_cpus
     from replication.experiments.sph import SPHStudyConfig, run_sph_study
@@ -323,10 +329,22 @@ def run_sph_report(out: Path, quick: bool, command: str, workers: int | None = N
             bar.update(1, last=label)
 
         kind = "serial" if at_once == 1 else "process"
-        with executor(kind, workers=None if kind == "serial" else at_once, abandon_on_interrupt=True) as pool:
-            results = run_sph_study(
-                config, command=command, quick=quick, on_run=tick, executor=pool, max_parallel=at_once
+        cache = Path(cache_dir) if cache_dir else default_cache_dir()
+        try:
+            with executor(
+                kind, workers=None if kind == "serial" else at_once, abandon_on_interrupt=True
+            ) as pool:
+                results = run_sph_study(
+                    config, command=command, quick=quick, on_run=tick, executor=pool, max_parallel=at_once,
+                    cache_dir=cache,
+                )  # fmt: skip
+        except KeyboardInterrupt:
+            print(
+                f"interrupted: the simulations that finished are kept in the SPH cache {cache}; the same "
+                "command again continues from them",
+                file=sys.stderr,
             )
+            raise
     with saving_data(out):
         save_sph_data(results, out)
     with drawing_saved_data(out):
@@ -353,7 +371,8 @@ examples:
   replication force bucket.csv --solver sph   one surface's force by SPH instead
 
 Each simulation runs in a child process with a time limit; a failed one is recorded with its
-reason, and the report says which.
+reason, and the report says which. Each finished simulation is kept in the SPH cache as it
+finishes: after Ctrl-C, the same command again simulates only what is missing.
 """,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -372,5 +391,12 @@ reason, and the report says which.
         metavar="N",
         help="simulations at a time, each on a core of its own (default 2, or 1 on a single CPU; 1 runs "
         "them one after another in this process); no result depends on it",
+    )
+    p.add_argument(
+        "--cache-dir",
+        type=directory_name,
+        metavar="DIR",
+        help="the SPH cache, where each finished simulation is kept and a rerun finds it (default "
+        "$REPLICATION_SPH_CACHE, else .sph-cache; shared with validate-jet and casestudy --rescore)",
     )
     p.set_defaults(func=_cmd_sph)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import functools
+import os
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -172,6 +173,18 @@ def _shapes(runs: pd.DataFrame, jet: JetConfig) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def _cached_surface_force(
+    surface: Any, jet: JetConfig, settings: Any, *, cache_dir: str, timeout: float | None = None
+) -> Any:
+    """:func:`~replication.casestudy.sph.surface_sph_force` through the SPH cache (a module-level
+    function: a process pool's workers take it by reference)."""
+    from replication.casestudy.sph_batch import cached_sph_force
+
+    return cached_sph_force(
+        surface.points, surface.triangles, jet, settings, cache_dir=cache_dir, timeout=timeout
+    )
+
+
 def run_sph_study(
     config: SPHStudyConfig,
     *,
@@ -181,6 +194,7 @@ def run_sph_study(
     score: Callable[..., Any] | None = None,
     executor: cf.Executor | None = None,
     max_parallel: int = 1,
+    cache_dir: str | os.PathLike[str] | None = None,
 ) -> SPHStudyResults:
     """Run every simulation of the study and tabulate.
 
@@ -203,6 +217,10 @@ def run_sph_study(
         Simulations at once. Each uses one core (one engine thread, so its result does not
         depend on what runs beside it); the finest particles go first, so that the longest
         simulations do not come last.
+    cache_dir : path, optional
+        The SPH cache (:mod:`replication.casestudy.sph_batch`): simulations found there are
+        not run again, and each one finished is kept there at once, so a study stopped by
+        Ctrl-C loses none of them. None: no cache. Ignored when ``score`` is given.
 
     Notes
     -----
@@ -213,6 +231,8 @@ def run_sph_study(
 
     if isinstance(max_parallel, bool) or not isinstance(max_parallel, int) or max_parallel < 1:
         raise InputError(f"max_parallel must be a positive integer, got {max_parallel!r}")
+    if score is None and cache_dir is not None:
+        score = functools.partial(_cached_surface_force, cache_dir=str(cache_dir))
     score = score or surface_sph_force
     pool = executor if executor is not None else SerialExecutor()
     started = time.perf_counter()
