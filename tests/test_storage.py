@@ -116,7 +116,7 @@ def test_a_data_set_records_the_checksums_of_its_files_and_reading_checks_them(t
     from replication.report.store import data_set, read_provenance, write_json
 
     data = tmp_path / "data"
-    with data_set(data, "x_provenance.json") as staged:
+    with data_set(data, "x_provenance.json", checksums=True) as staged:
         (staged / "x_a.csv").write_text("a\n1\n2\n")
         (staged / "sub").mkdir()
         (staged / "sub" / "m.vtk").write_bytes(b"mesh")

@@ -52,7 +52,7 @@ def save_casestudy_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
     """Write the case study's tables, best individuals and provenance under ``out_dir/data``."""
     data = Path(out_dir) / "data"
     stale = RESCORE_FILES if getattr(results, "rescore", None) is None else ()
-    with data_set(data, "casestudy_provenance.json", stale=stale) as staged:
+    with data_set(data, "casestudy_provenance.json", stale=stale, checksums=True) as staged:
         for name in TABLES:
             write_csv(getattr(results, name), staged / f"casestudy_{name}.csv")
         best = pd.concat(

@@ -75,7 +75,9 @@ def save_jet_validation_data(results: Any, out_dir: str | os.PathLike[str]) -> P
     data = Path(out_dir) / "data"
     absent = [name for name in TABLES + OPTIONAL if getattr(results, name, None) is None]
     # the tables of an earlier run that this one does not have are removed
-    with data_set(data, f"{PREFIX}_provenance.json", stale=[f"{PREFIX}_{n}.csv" for n in absent]) as staged:
+    with data_set(
+        data, f"{PREFIX}_provenance.json", stale=[f"{PREFIX}_{n}.csv" for n in absent], checksums=True
+    ) as staged:
         for name in TABLES + OPTIONAL:
             if name not in absent:
                 write_csv(getattr(results, name), staged / f"{PREFIX}_{name}.csv")

@@ -26,7 +26,7 @@ TEXT_COLUMNS = frozenset({"hypothesis", "why", "verdict", "shape", "method", "st
 def save_sph_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
     """Write the SPH study's tables and provenance under ``out_dir/data``."""
     data = Path(out_dir) / "data"
-    with data_set(data, "sph_provenance.json") as staged:
+    with data_set(data, "sph_provenance.json", checksums=True) as staged:
         for name in TABLES:
             write_csv(getattr(results, name), staged / f"sph_{name}.csv")
         write_json(results.provenance, staged / "sph_provenance.json")

@@ -322,14 +322,18 @@ def _publish(source: Path, target: Path) -> None:
 
 
 @contextlib.contextmanager
-def data_set(data: Path, provenance: str, *, stale: Iterable[str] = ()) -> Iterator[Path]:
+def data_set(
+    data: Path, provenance: str, *, stale: Iterable[str] = (), checksums: bool = False
+) -> Iterator[Path]:
     """Stage an experiment's data files, then publish them together, the provenance last.
 
     Yields a staging directory inside ``data``: write the files there under their final
-    names (subdirectories included). When the block ends without an error, the old
-    provenance is removed, the files matching the ``stale`` glob patterns (relative to
-    ``data``) that this run does not write are removed, the staged files replace those in
-    ``data`` and the new provenance comes last, with Ctrl-C held meanwhile.
+    names (subdirectories included). With ``checksums``, the staged provenance (a JSON object)
+    gains the checksum and size of every other file of the set (:func:`read_provenance`).
+    When the block ends without an error, the old provenance is removed, the files matching
+    the ``stale`` glob patterns (relative to ``data``) that this run does not write are
+    removed, the staged files replace those in ``data`` and the new provenance comes last,
+    with Ctrl-C held meanwhile.
 
     A Ctrl-C or an error while the files are written leaves ``data`` as it was. A crash in the
     short publishing step (a SIGKILL, a power cut) left the data without their provenance, a
@@ -347,7 +351,8 @@ def data_set(data: Path, provenance: str, *, stale: Iterable[str] = ()) -> Itera
         staged = sorted(p.relative_to(staging) for p in staging.rglob("*") if p.is_file())
         if Path(provenance) not in staged:
             raise ValueError(f"the staged data set has no provenance {provenance}")
-        _record_files(staging, provenance, staged)
+        if checksums:  # (the provenance is then a JSON object: the experiments' records are)
+            _record_files(staging, provenance, staged)
         published = False
         try:
             with _publishing(data), interrupt_deferred():

@@ -60,7 +60,7 @@ def save_table1_data(results: Any, out_dir: str | os.PathLike[str]) -> Path:
     """Write the results' tables (CSV), provenance (JSON) and meshes under ``out_dir/data``."""
     data = Path(out_dir) / "data"
     # meshes of sizes this run does not have are removed
-    with data_set(data, "table1_provenance.json", stale=["table1_meshes/*"]) as staged:
+    with data_set(data, "table1_provenance.json", stale=["table1_meshes/*"], checksums=True) as staged:
         meshes = staged / "table1_meshes"
         meshes.mkdir()
         for name in TABLES:
