@@ -217,14 +217,33 @@ def test_a_plain_resume_continues_the_runs_rescoring_and_other_options_are_refus
     assert main(first) == 0
     rescored = json.loads(capsys.readouterr().out)["rescore"]
     assert json.loads((tmp_path / "run" / "rescore.json").read_text()) == {
-        "cache_dir": "cache", "duration": 16.0, "particle_radius": 1.0, "rescore": "sph", "top": 2
+        "cache_dir": str((tmp_path / "cache").resolve()), "duration": 16.0, "particle_radius": 1.0,
+        "rescore": "sph", "top": 2,
     }  # fmt: skip
     CALLS.clear()
     assert main(["casestudy", "--run-dir", "run", "--resume", "--output-dir", "out", "--json"]) == 0
     again = json.loads(capsys.readouterr().out)
     assert [r["sph_N"] for r in again["rescore"]] == [r["sph_N"] for r in rescored] and CALLS == []
+    # the same options again, the cache by another path from another directory: the same run
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    again = [
+        "--run-dir",
+        "../run",
+        "--resume",
+        "--output-dir",
+        "../out",
+        "--top",
+        "2",
+        "--cache-dir",
+        "../cache",
+    ]
+    assert main(["casestudy", *again, "--json"]) == 0 and CALLS == []
+    capsys.readouterr()
+    monkeypatch.chdir(tmp_path)
     for extra, named in (
         (["--top", "3"], "--top 3 (the run has 2)"),
+        (["--cache-dir", "other"], f"(the run has {(tmp_path / 'cache').resolve()})"),
         (["--duration", "20"], "--duration 20 (the run has 16.0)"),
         (["--solver", "sph"], "--solver sph"),
     ):
@@ -236,6 +255,17 @@ def test_a_plain_resume_continues_the_runs_rescoring_and_other_options_are_refus
     (tmp_path / "run" / "rescore.json").write_text("{not json")
     assert main(["casestudy", "--run-dir", "run", "--resume"]) == 1
     assert "rescore.json: not a readable record of the run's --rescore options" in capsys.readouterr().err
+
+
+def test_a_resume_may_repeat_an_option_at_its_default(tmp_path, monkeypatch, capsys, fake_engine):
+    # was: --top 5 (the default) refused on resume as "the run has its default"
+    monkeypatch.chdir(tmp_path)
+    first = [*TINY, "--run-dir", "run", "--output-dir", "out", "--rescore", "sph", "--particle-radius", "1",
+             "--duration", "16", "--cache-dir", "cache"]  # fmt: skip
+    assert main(first) == 0
+    capsys.readouterr()
+    assert json.loads((tmp_path / "run" / "rescore.json").read_text())["top"] == 5
+    assert main(["casestudy", "--run-dir", "run", "--resume", "--output-dir", "out", "--top", "5"]) == 0
 
 
 @pytest.mark.parametrize(

@@ -129,12 +129,13 @@ def test_result_round_trips_through_json(flat_full):
 
 def test_a_duration_whose_jet_needs_more_particles_than_memory_holds_is_refused_at_once():
     # was: --duration 1e9 set up for 47 s, then "not enough memory: Unable to allocate 259. GiB"
-    from replication.casestudy.sph.settings import MAX_JET_PARTICLES, SPHSettings, timeline
+    from replication.casestudy.sph.settings import SPHSettings
+    from replication.casestudy.sph_size import MAX_JET_PARTICLES, check_jet_particles
     from replication.errors import InputError
 
-    assert MAX_JET_PARTICLES >= 1000 * 6545  # the paper's 20 ms at r = 0.75 mm: 6,545 particles
-    timeline(SPHSettings(), 4.34, 0.018)
+    paper = check_jet_particles(SPHSettings(), 4.34, 0.018)  # the paper's 20 ms at r = 0.75 mm
+    assert 5000 < paper < 7000 and MAX_JET_PARTICLES >= 1000 * paper
     with pytest.raises(
         InputError, match=r"SPH duration 1e\+09 ms makes a water column 4.34e\+06 m long: about 1.7"
     ):
-        timeline(SPHSettings(duration=1e6, particle_radius=2e-3), 4.34, 0.018)
+        check_jet_particles(SPHSettings(duration=1e6, particle_radius=2e-3), 4.34, 0.018)

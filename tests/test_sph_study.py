@@ -115,6 +115,40 @@ def test_the_sph_command_says_where_an_interrupted_study_s_simulations_are(tmp_p
     monkeypatch.chdir(tmp_path)
     assert main(["sph", "--quick", "--workers", "1", "--cache-dir", "cache"]) == 130
     err = capsys.readouterr().err
-    assert (
-        "interrupted: the simulations that finished are kept in the SPH cache cache; the same command" in err
-    )
+    cache = (tmp_path / "cache").resolve()
+    assert f"interrupted: the simulations that finished are kept in the SPH cache {cache}; the same" in err
+
+
+def test_a_cached_crash_is_simulated_again_and_a_cached_blowup_is_not(tmp_path, monkeypatch):
+    """A crash is the machine's (no memory, a full disk): reusing it made every rerun fail."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from replication.casestudy import sph_batch
+
+    entries = {"crash": SimpleNamespace(ok=False, status="crash", wall_seconds=1.0),
+               "blowup": SimpleNamespace(ok=False, status="blowup", wall_seconds=1.0),
+               "short timeout": SimpleNamespace(ok=False, status="timeout", wall_seconds=5.0)}  # fmt: skip
+    simulated = []
+    monkeypatch.setattr(sph_batch, "cache_key", lambda *a, **k: "k" * 64)
+    monkeypatch.setattr(sph_batch, "_simulate_into_cache", lambda *a, **k: simulated.append(1) or "fresh")
+    for name, expected in (("crash", "fresh"), ("blowup", entries["blowup"]), ("short timeout", "fresh")):
+        monkeypatch.setattr(sph_batch, "read_entry", lambda *a, entry=entries[name]: entry)
+        got = sph_batch.cached_sph_force(np.zeros((3, 3)), np.array([[0, 1, 2]]), None, None,
+                                         cache_dir=tmp_path, timeout=60.0)  # fmt: skip
+        assert got == expected, name
+    assert len(simulated) == 2
+
+
+def test_the_sph_cache_is_checked_before_any_work(tmp_path, monkeypatch, capsys):
+    from replication.cli import main
+
+    monkeypatch.setattr("replication.casestudy.sph.require_engine", lambda: "2.19.0")
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / ".sph-cache").write_text("a file where the cache goes")
+    # was: "unexpected FileExistsError", after the study had started
+    assert main(["sph", "--quick", "--output-dir", "out"]) == 1
+    err = capsys.readouterr().err
+    assert "the SPH cache" in err and ".sph-cache" in err and err.count("\n") == 1
+    assert not (tmp_path / "out").exists()

@@ -51,6 +51,7 @@ __all__ = [
     "cache_key",
     "cached_sph_force",
     "code_digest",
+    "prepare_cache",
     "entry_path",
     "read_entry",
     "score_surfaces",
@@ -235,6 +236,15 @@ def _simulate_into_cache(
     return dataclasses.replace(result, run_dir=str(final))
 
 
+def prepare_cache(cache_dir: str | os.PathLike[str]) -> Path:
+    """Create the cache directory if needed and remove the scratch directories that killed
+    simulations left in it (:func:`score_surfaces` does this for its own runs)."""
+    cache_dir = Path(cache_dir)
+    cache_dir.mkdir(parents=True, exist_ok=True)
+    _remove_abandoned_scratch(cache_dir)
+    return cache_dir
+
+
 def cached_sph_force(
     points: np.ndarray,
     triangles: np.ndarray,
@@ -245,18 +255,25 @@ def cached_sph_force(
     timeout: float | None = None,
     name: str = "surface",
 ) -> Any:
-    """:func:`~.sph.sph_force` through the cache: the entry's result when there is one (a
-    failure included, unless it timed out under a shorter limit), else simulated here and
-    published into the cache, so that a run stopped by Ctrl-C keeps every simulation it
-    finished (the SPH study kept none).
+    """:func:`~.sph.sph_force` through the cache: the entry's result when there is one, else
+    simulated here and published into the cache, so that a run stopped by Ctrl-C keeps every
+    simulation it finished (the SPH study kept none). A cached blow-up is the flow's outcome
+    and is reused; a crash (the machine's: no memory, a full disk) or a timeout under a
+    shorter limit is simulated again.
     """
     from replication.casestudy.sph import DEFAULT_TIMEOUT
 
     timeout = DEFAULT_TIMEOUT if timeout is None else timeout
     key = cache_key(points, triangles, jet, settings)
     result = read_entry(cache_dir, key)
-    if result is not None and not (result.status == "timeout" and result.wall_seconds < 0.99 * timeout):
+    if result is not None and (
+        result.ok
+        or result.status == "blowup"  # the flow's own outcome, the same on every rerun
+        or (result.status == "timeout" and result.wall_seconds >= 0.99 * timeout)
+    ):
         return result
+    # absent, or a crash (a full disk, no memory: the machine's, not the flow's) or a timeout
+    # under a shorter limit: simulated again
     Path(cache_dir).mkdir(parents=True, exist_ok=True)
     task = SurfaceTask(name, points, triangles)
     return _simulate_into_cache(task, jet, settings, str(cache_dir), key, timeout, None)

@@ -302,7 +302,7 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
             action = "resuming" if plan.resume else "after an interruption, resume with"
             print(f"GA run directory: {plan.run_dir} ({action}: {plan.hint})", file=sys.stderr)
             write_fitness_record(plan.run_dir, plan.solver)
-            write_rescore_record(plan.run_dir, args)
+            write_rescore_record(plan.run_dir, args, plan.rescore)
             with Progress(
                 config.runs * config.generations, "GA generations", initial=plan.done_generations
             ) as bar:

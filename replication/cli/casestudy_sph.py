@@ -102,8 +102,9 @@ def rescore_config(args: argparse.Namespace, config: Any) -> Any:
 
     from replication.casestudy import sph
     from replication.casestudy.rescore import RescoreConfig
-    from replication.casestudy.sph.settings import SPHSettings, timeline
+    from replication.casestudy.sph.settings import SPHSettings
     from replication.casestudy.sph_batch import default_cache_dir
+    from replication.casestudy.sph_size import check_jet_particles
     from replication.io.paths import check_utf8_path, check_writable_dir
 
     cache = Path(args.cache_dir) if args.cache_dir else default_cache_dir()
@@ -117,7 +118,7 @@ def rescore_config(args: argparse.Namespace, config: Any) -> Any:
     if args.duration is not None:
         changes["duration"] = args.duration / 1000.0  # ms -> s
     settings = SPHSettings(**changes)
-    timeline(settings, config.jet.velocity, config.jet.diameter)  # a duration with no window: refuse now
+    check_jet_particles(settings, config.jet.velocity, config.jet.diameter)  # no window, or no memory: now
     return RescoreConfig(
         top=5 if args.top is None else args.top,
         settings=settings,
@@ -272,24 +273,40 @@ def sph_fitness(plan: Any, args: argparse.Namespace, workers: int) -> Any:
 
 
 def _rescore_options(args: argparse.Namespace) -> dict[str, Any]:
-    return {
+    """The ``--rescore`` options given, a cache directory resolved (a resume from another
+    working directory names the same cache by another path)."""
+    from pathlib import Path
+
+    given = {
         name: getattr(args, name)
         for name in ("rescore", *SPH_OPTIONS)
         if getattr(args, name, None) is not None
     }
+    if "cache_dir" in given:
+        given["cache_dir"] = str(Path(given["cache_dir"]).resolve())
+    return given
 
 
-def write_rescore_record(run_dir: Any, args: argparse.Namespace) -> None:
-    """Record the ``--rescore`` options in the run directory (nothing without ``--rescore``)."""
+#: The options' values when they are not given (as the command line takes them: mm, ms).
+_RESCORE_DEFAULTS = {"top": 5, "particle_radius": 0.75, "duration": 20.0}
+
+
+def write_rescore_record(run_dir: Any, args: argparse.Namespace, rescore: Any) -> None:
+    """Record the ``--rescore`` options in the run directory, defaults and the cache used
+    included (nothing without ``--rescore``)."""
     import json
     from pathlib import Path
 
     from replication.io.atomic import atomic_write_text
 
-    if getattr(args, "rescore", None) is not None:
-        atomic_write_text(
-            Path(run_dir) / RESCORE_NAME, json.dumps(_rescore_options(args), sort_keys=True) + "\n"
-        )
+    if getattr(args, "rescore", None) is None or rescore is None:
+        return
+    record = {
+        **_RESCORE_DEFAULTS,
+        **_rescore_options(args),
+        "cache_dir": str(Path(rescore.cache_dir).resolve()),
+    }
+    atomic_write_text(Path(run_dir) / RESCORE_NAME, json.dumps(record, sort_keys=True) + "\n")
 
 
 def restore_rescore(args: argparse.Namespace, run_dir: Any) -> None:
@@ -339,4 +356,4 @@ def restore_rescore(args: argparse.Namespace, run_dir: Any) -> None:
         )
     for name, value in recorded.items():
         if name in ("rescore", *SPH_OPTIONS):
-            setattr(args, name, value)
+            setattr(args, name, value)  # (a default recorded as given: the same value)

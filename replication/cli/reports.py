@@ -278,6 +278,14 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         output_dir=str(out), json=False,
     )  # fmt: skip
     plan = plan_casestudy(ga_args)  # checks the GA's run directory before the first stage
+    from replication.casestudy.sph import engine_available
+
+    # the SPH study's cache, checked now, not after Table 1 (its simulations run in it)
+    sph_cache_dir = None
+    if engine_available():
+        from replication.cli.sph import sph_cache
+
+        sph_cache_dir = str(sph_cache(None))
     kind = "quick (reduced) run" if args.quick else "full run"
     print(f"replication reproduce: {kind} into {out}/")
     start = time.perf_counter()
@@ -297,7 +305,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
             if not engine_available():
                 print(f"  [skipped] {name}: the SPH solver is not installed ({INSTALL_HINT})")
                 continue
-            path = run_sph_report(out, args.quick, args.invocation, args.workers)
+            path = run_sph_report(out, args.quick, args.invocation, args.workers, sph_cache_dir)
         elif name == "jet validation":  # issue 11: hours of SPH, so only from a filled cache
             from replication.cli.validate_run import reproduce_stage
 
@@ -327,8 +335,10 @@ examples:
   replication reproduce --workers 1           one task at a time (SPH simulations still in a child process)
 
 An interrupted run keeps the reports of the stages it finished, each consistent with its
-data; running the command again runs every stage anew. An interrupted case study also keeps
-its checkpoints and prints the `replication casestudy ... --resume` that finishes it.
+data; running the command again runs every stage anew, except the SPH simulations already in
+the SPH cache (.sph-cache, or $REPLICATION_SPH_CACHE), which are taken from it. An interrupted
+case study also keeps its checkpoints and prints the `replication casestudy ... --resume` that
+finishes it.
 """,
     "table1": f"""\
 examples:

@@ -200,11 +200,11 @@ def force_sph(
     model prints them (:func:`replication.cli.force.shared_report`).
     """
     from replication.casestudy.sph import DEFAULT_TIMEOUT, require_engine, sph_force
-    from replication.casestudy.sph.settings import timeline
+    from replication.casestudy.sph_size import check_jet_particles
     from replication.cli.progress import progress as show_progress
 
     settings = _settings(args)
-    timeline(settings, config.velocity, config.diameter)  # a duration with no window: refuse first
+    check_jet_particles(settings, config.velocity, config.diameter)  # no window, or no memory: refuse first
     require_engine()
     from replication.cli.jet_misses import sph_coverage_warning
 
@@ -292,14 +292,29 @@ def _cmd_sph(args: argparse.Namespace) -> int:
 
     out = planned_output_dir(args, ("sph.md", "index.md"))
     check_temporary_dir_utf8()  # its simulations run in temporary directories
+    cache = sph_cache(args.cache_dir)
     require_engine()
     start = time.perf_counter()
-    path = run_sph_report(out, args.quick, args.invocation, args.workers, args.cache_dir)
+    path = run_sph_report(out, args.quick, args.invocation, args.workers, str(cache))
     written = finish_reports(out)
     print(f"wrote {path} ({time.perf_counter() - start:.1f} s; data in {out / 'data'})")
     for readme in written[1:]:
         print(f"refreshed the headline block of {readme} from {out}/data (the reports beside it)")
     return 0
+
+
+def sph_cache(cache_dir: str | None) -> Path:
+    """The SPH cache a study simulates into (``--cache-dir``, else the default), resolved and
+    checked before any work: writable, and a UTF-8 path the engine can take (a file in its
+    place was an 'unexpected FileExistsError', a non-UTF-8 name a crash of every simulation)."""
+    from replication.casestudy.sph_batch import default_cache_dir
+    from replication.io.paths import check_utf8_path, check_writable_dir
+
+    cache = Path(cache_dir) if cache_dir else default_cache_dir()
+    what = "--cache-dir" if cache_dir else "the SPH cache"
+    check_writable_dir(cache, what)
+    check_utf8_path(cache, what)
+    return cache.resolve()
 
 
 def run_sph_report(

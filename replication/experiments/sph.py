@@ -231,7 +231,11 @@ def run_sph_study(
 
     if isinstance(max_parallel, bool) or not isinstance(max_parallel, int) or max_parallel < 1:
         raise InputError(f"max_parallel must be a positive integer, got {max_parallel!r}")
-    if score is None and cache_dir is not None:
+    through_cache = score is None and cache_dir is not None
+    if through_cache:
+        from replication.casestudy.sph_batch import prepare_cache
+
+        prepare_cache(cache_dir)  # (the scratch a killed study left is removed)
         score = functools.partial(_cached_surface_force, cache_dir=str(cache_dir))
     score = score or surface_sph_force
     pool = executor if executor is not None else SerialExecutor()
@@ -285,6 +289,7 @@ def run_sph_study(
         run_seconds=time.perf_counter() - started,
         simulation_seconds=float(runs["wall_s"].sum()),
         simulations_at_once=max_parallel,
+        **({"sph_cache": str(cache_dir)} if through_cache else {}),
     )
     return SPHStudyResults(
         config=config,

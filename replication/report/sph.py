@@ -180,6 +180,12 @@ def render_sph(out_dir: str | os.PathLike[str]) -> Path:
         else ""
     )
     duration = 1e3 * config["duration"]
+    cache_note = (
+        " The simulations were taken from the SPH cache where it held them: a wall time is that of the "
+        "run that made the entry."
+        if prov.get("sph_cache")
+        else ""
+    )
     at_once = int(prov.get("simulations_at_once", 1))  # data saved before it was recorded: one at a time
     beside = "one at a time" if at_once == 1 else f"{at_once} at a time, each on its own core"
     base = prov["sph_settings"]
@@ -239,7 +245,7 @@ WCSPH impact peak at the finest radius with c = 10 V.
 
 ## Convergence (DFSPH)
 
-(data: `data/sph_runs.csv`, `data/sph_series.csv`.) Mass flux ratio: measured over nominal rho Q.
+(data: `data/sph_runs.csv`, `data/sph_series.csv`.) Mass flux ratio: measured over nominal rho Q.{cache_note}
 
 {
         table(

@@ -183,11 +183,6 @@ class Timeline:
     column_length: float  # length of the water column (m)
 
 
-#: The most fluid particles a jet may need (about 256 bytes each in the engine: 5 GB); the
-#: paper's 20 ms at r = 0.75 mm need about 6,500.
-MAX_JET_PARTICLES = 2e7
-
-
 def timeline(settings: SPHSettings, jet_speed: float, jet_diameter: float) -> Timeline:
     """The gap, contact time, averaging window and column length of a simulation.
 
@@ -199,8 +194,7 @@ def timeline(settings: SPHSettings, jet_speed: float, jet_diameter: float) -> Ti
     Raises
     ------
     InputError
-        When the duration leaves no window of at least two bins, or makes a column of more
-        than :data:`MAX_JET_PARTICLES` particles.
+        When the duration leaves no window of at least two bins.
     """
     gap = settings.support_radius + CLEARANCE
     contact = gap / jet_speed
@@ -213,15 +207,6 @@ def timeline(settings: SPHSettings, jet_speed: float, jet_diameter: float) -> Ti
             f"{1e3 * start:.3g} ms in and ends one jet diameter's travel before the end); use a duration "
             f"of at least {1e3 * need:.3g} ms"
         )
-    column = jet_speed * (settings.duration - contact)
-    spacing = 2 * settings.particle_radius
-    particles = (
-        math.pi * (jet_diameter / 2) ** 2 * column / spacing**3
-    )  # (the full jet's; the half jet has half)
-    if particles > MAX_JET_PARTICLES:  # (1e9 ms asked for 259 GiB after 47 s of setting up)
-        raise InputError(
-            f"SPH duration {1e3 * settings.duration:g} ms makes a water column {column:.3g} m long: about "
-            f"{particles:.3g} particles at particle radius {1e3 * settings.particle_radius:g} mm, more than "
-            f"{MAX_JET_PARTICLES:.0e} (tens of GB); use a shorter duration or larger particles"
-        )
-    return Timeline(gap=gap, contact=contact, window=(start, end), column_length=column)
+    return Timeline(
+        gap=gap, contact=contact, window=(start, end), column_length=jet_speed * (settings.duration - contact)
+    )
