@@ -321,3 +321,17 @@ def test_the_committed_data_sets_match_the_checksums_their_saves_recorded():
     for prefix, command in (("table1", "replication table1"), ("casestudy", "replication casestudy")):
         record = read_provenance(data, f"{prefix}_provenance.json", command)  # raises on a mismatch
         assert record["data_files"] and all(name.startswith(prefix) for name in record["data_files"])
+
+
+def test_the_headline_is_not_drawn_from_a_changed_data_file(quick_reports_copy):
+    """table1 and sph refresh the README headline from every experiment's data: a case-study
+    file changed after its save was read there unchecked."""
+    from replication.errors import ReportDataError
+    from replication.report.index import headline
+
+    assert headline(quick_reports_copy)
+    path = quick_reports_copy / "data" / "casestudy_runs.csv"
+    lines = path.read_text().splitlines(keepends=True)
+    path.write_text("".join(lines[:-1]))
+    with pytest.raises(ReportDataError, match=r"casestudy_runs.csv differs from the file saved"):
+        headline(quick_reports_copy)

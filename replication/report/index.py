@@ -14,7 +14,7 @@ from replication.io.atomic import atomic_write_text
 from replication.report.casestudy_validation import validation_headline
 from replication.report.markdown import write_report
 from replication.report.pages import is_ours
-from replication.report.store import read_csv
+from replication.report.store import read_csv, read_provenance
 
 __all__ = ["REPORTS", "fill_block", "has_block", "headline", "render_index", "update_readme"]
 
@@ -103,9 +103,26 @@ def _storage_and_speed_before_families(claims: pd.DataFrame, n: int) -> list[str
     ]
 
 
+#: Each experiment's data set (its provenance's prefix) and the command that makes it again.
+_DATA_SETS = (
+    ("table1", "replication table1"),
+    ("sph", "replication sph"),
+    ("jet_validation", "replication validate-jet"),
+    ("casestudy", "replication casestudy"),
+)
+
+
 def headline(out_dir: str | os.PathLike[str]) -> list[str]:
-    """A few sentences of headline results, every number read from the reports' data."""
+    """A few sentences of headline results, every number read from the reports' data.
+
+    Each data set is first checked against the checksums its save recorded
+    (:func:`~replication.report.store.read_provenance`): ``sph`` or ``table1`` refresh the
+    README's headline from every experiment's data, not only their own.
+    """
     data = Path(out_dir) / "data"
+    for prefix, command in _DATA_SETS:
+        if (data / f"{prefix}_provenance.json").is_file():
+            read_provenance(data, f"{prefix}_provenance.json", command)
     lines: list[str] = []
     if (data / "table1_claims.csv").is_file():
         claims, mc = read_csv(data / "table1_claims.csv"), read_csv(data / "table1_montecarlo.csv")
