@@ -303,6 +303,8 @@ def test_a_data_file_changed_after_the_save_is_refused_by_name(capsys, quick_rep
         assert main(["report", "--output-dir", str(out)]) == 1
         err = capsys.readouterr().err
         assert f"{path} differs from the file saved with {provenance.name}" in err and err.count("\n") == 1
+        command = json.loads(provenance.read_text())["command"]  # the run's own, settings included
+        assert command.startswith("replication ") and f"run `{command}` again" in err
         assert {p.name: p.read_bytes() for p in out.glob("*.md")} == pages  # nothing drawn
         path.write_bytes(original)
     assert main(["report", "--output-dir", str(out)]) == 0  # the files as saved: drawn as before

@@ -175,14 +175,16 @@ def read_provenance(data: str | os.PathLike[str], provenance: str, command: str)
     ------
     ReportDataError
         A file of the set is missing or differs from what was saved (a lost or edited row):
-        the report would draw other numbers than the run computed. ``command`` is the one that
-        makes the data again.
+        the report would draw other numbers than the run computed. The message names the
+        command the provenance records (the run's own, settings included), else ``command``.
     """
     data = Path(data)
     record = read_json(data / provenance)
     files = record.get(DATA_FILES)
     if files is None:
         return record
+    if isinstance(record.get("command"), str) and record["command"].startswith("replication "):
+        command = record["command"]  # the run's own invocation, its settings included
     if not isinstance(files, dict):
         raise ReportDataError(
             f"{data / provenance}: its {DATA_FILES} record is not a mapping; run `{command}` again"
