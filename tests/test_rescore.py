@@ -185,12 +185,16 @@ def fake_engine(monkeypatch):
     monkeypatch.setattr(sph_package, "sph_force", fake_sph)
 
 
+#: A tiny GA re-scored by the fake engine: its 2 best surfaces per run, coarse particles.
+RESCORED = [*TINY, "--run-dir", "run", "--output-dir", "out", "--rescore", "sph", "--top", "2",
+            "--particle-radius", "1", "--duration", "16", "--cache-dir", "cache", "--json"]  # fmt: skip
+
+
 def test_casestudy_rescore_runs_end_to_end_and_resumes_from_the_cache(
     tmp_path, monkeypatch, capsys, fake_engine
 ):
     monkeypatch.chdir(tmp_path)
-    args = [*TINY, "--run-dir", "run", "--output-dir", "out", "--rescore", "sph", "--top", "2",
-            "--particle-radius", "1", "--duration", "16", "--cache-dir", "cache", "--json"]  # fmt: skip
+    args = RESCORED
     assert main(args) == 0
     first = json.loads(capsys.readouterr().out)
     assert [r["surface"] for r in first["rescore"]][:2] == ["flat plate", "pelton bucket"]
@@ -212,9 +216,7 @@ def test_a_plain_resume_continues_the_runs_rescoring_and_other_options_are_refus
     # the directory its settings alone chose (another run's report); --resume --top 3 of a
     # run with --top 2 was accepted
     monkeypatch.chdir(tmp_path)
-    first = [*TINY, "--run-dir", "run", "--output-dir", "out", "--rescore", "sph", "--top", "2",
-             "--particle-radius", "1", "--duration", "16", "--cache-dir", "cache", "--json"]  # fmt: skip
-    assert main(first) == 0
+    assert main(RESCORED) == 0
     rescored = json.loads(capsys.readouterr().out)["rescore"]
     assert json.loads((tmp_path / "run" / "rescore.json").read_text()) == {
         "cache_dir": str((tmp_path / "cache").resolve()), "duration": 16.0, "particle_radius": 1.0,

@@ -201,7 +201,7 @@ def worker_initializer(parent: int | None = None) -> None:
     evaluation per worker, so BLAS or kernel threads would only compete (see
     :mod:`replication.threadlimits`, :func:`replication.surfaces._threads.one_thread`).
     A parent killed outright left its workers waiting forever, holding its run directory's
-    lock (:func:`.interrupts.end_with_parent`, :func:`.rundir.close_inherited_locks`).
+    lock (:func:`.interrupts.end_with_parent`, :func:`replication.io.locks.close_inherited_locks`).
     """
     # Until the worker is set up, SIGTERM (its parent's death among others) ends it at once:
     # there is nothing to unwind yet, and a SystemExit raised inside the initializer would be
@@ -211,16 +211,14 @@ def worker_initializer(parent: int | None = None) -> None:
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if hasattr(signal, "pthread_sigmask"):  # POSIX
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
-    from replication.casestudy.rundir import close_inherited_locks
-    from replication.io import locks
+    from replication.io.locks import close_inherited_locks
     from replication.surfaces._threads import one_thread
     from replication.threadlimits import limit_worker_blas
 
     ignore_interrupts()
     if parent is not None:
         end_with_parent(parent)
-    close_inherited_locks()
-    locks.close_inherited_locks()  # (the reports directory's)
+    close_inherited_locks()  # (the run directory's and the reports directory's)
     limit_worker_blas()
     one_thread()
     exit_on_terminate()

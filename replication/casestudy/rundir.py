@@ -25,6 +25,7 @@ from replication.casestudy.ga import GAConfig
 from replication.casestudy.jet import JetConfig
 from replication.errors import CheckpointError, InputError
 from replication.io.atomic import atomic_write_text
+from replication.io.locks import register_lock, unregister_lock
 from replication.io.paths import is_browser_file
 
 __all__ = [
@@ -78,28 +79,11 @@ def hold(run_dir: str | os.PathLike[str]) -> Iterator[Path]:
                 f"{run_dir} is in use by another command running the GA there; wait for it to end, or use "
                 "another run directory"
             ) from None
-        _HELD.add(fd)
+        register_lock(fd)  # a forked worker closes its copy (io.locks.close_inherited_locks)
         yield run_dir
     finally:
-        _HELD.discard(fd)
+        unregister_lock(fd)
         os.close(fd)
-
-
-#: The descriptors of the locks this process holds (:func:`hold`).
-_HELD: set[int] = set()
-
-
-def close_inherited_locks() -> None:
-    """In a forked worker: close the run-directory locks inherited from the parent.
-
-    A forked child shares its parent's open lock, which stays held while any process keeps
-    it open: a worker outliving a killed parent kept the run directory locked. Closing the
-    child's copy leaves the parent's lock as it is.
-    """
-    for fd in list(_HELD):
-        with contextlib.suppress(OSError):
-            os.close(fd)
-    _HELD.clear()
 
 
 #: A checkpoint's name; ``run-<k>.json``.

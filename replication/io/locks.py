@@ -23,7 +23,13 @@ from pathlib import Path
 
 from replication.errors import OutputError
 
-__all__ = ["close_inherited_locks", "held_until_the_command_ends", "hold_reports_dir"]
+__all__ = [
+    "close_inherited_locks",
+    "held_until_the_command_ends",
+    "hold_reports_dir",
+    "register_lock",
+    "unregister_lock",
+]
 
 _STACK: contextvars.ContextVar[contextlib.ExitStack | None] = contextvars.ContextVar("_STACK", default=None)
 #: The directories this process holds (their resolved paths), and the lock descriptors.
@@ -82,19 +88,40 @@ def hold_reports_dir(out: str | os.PathLike[str], what: str = "--output-dir") ->
         os.close(fd)
         return
     _HELD[key] = fd
+    register_lock(fd)
 
     def release() -> None:
         if _HELD.pop(key, None) is not None:
+            unregister_lock(fd)
             with contextlib.suppress(OSError):
                 os.close(fd)
 
     stack.callback(release)
 
 
+#: Every lock descriptor this process holds, the reports directory's and the GA run
+#: directory's (:func:`replication.casestudy.rundir.hold` registers its own).
+_DESCRIPTORS: set[int] = set()
+
+
+def register_lock(fd: int) -> None:
+    """Count ``fd`` among the locks a forked worker must not keep (:func:`close_inherited_locks`)."""
+    _DESCRIPTORS.add(fd)
+
+
+def unregister_lock(fd: int) -> None:
+    _DESCRIPTORS.discard(fd)
+
+
 def close_inherited_locks() -> None:
-    """In a forked worker: close the copies of the parent's holds (a worker that outlived a
-    killed parent kept its reports directory held)."""
-    for fd in list(_HELD.values()):
+    """In a forked worker: close its copies of the parent's locks.
+
+    A forked child shares its parent's open lock, which stays held while any process keeps it
+    open: a worker outliving a killed parent kept the run directory (or the reports
+    directory) locked. Closing the child's copy leaves the parent's lock as it is.
+    """
+    for fd in list(_DESCRIPTORS):
         with contextlib.suppress(OSError):
             os.close(fd)
+    _DESCRIPTORS.clear()
     _HELD.clear()

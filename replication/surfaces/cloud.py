@@ -5,11 +5,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import astuple, dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from replication.errors import InputError, shown
+from replication.errors import CloudFileError, InputError, shown
 
 __all__ = [
     "Box",
@@ -177,8 +178,6 @@ def _named_columns(points: object, name: str) -> object:
     leave the columns in their order. Other inputs are returned as they are.
     """
     if isinstance(points, np.ndarray) and points.dtype.names is not None:
-        from pathlib import Path
-
         mask = np.ma.getmaskarray(points) if isinstance(points, np.ma.MaskedArray) else None
         hidden = 0 if mask is None else sum(int(np.count_nonzero(mask[field])) for field in mask.dtype.names)
         if hidden:  # (np.ma.is_masked cannot read a structured mask)
@@ -187,7 +186,6 @@ def _named_columns(points: object, name: str) -> object:
                 "those points or fill them first"
             )
 
-        from replication.errors import CloudFileError
         from replication.io.npyclouds import unstructured
 
         try:
@@ -197,9 +195,6 @@ def _named_columns(points: object, name: str) -> object:
     columns = getattr(points, "columns", None)
     if columns is None or not hasattr(points, "to_numpy") or len(columns) != 3:
         return points
-    from pathlib import Path
-
-    from replication.errors import CloudFileError
     from replication.io.axisnames import axis_order
 
     try:
