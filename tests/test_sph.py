@@ -108,6 +108,9 @@ def test_half_jet_from_the_command_line_is_half_the_full_jet_and_repeatable(flat
     assert report["axial_force_N"] == 0.5 * flat_full.mean_axial  # exactly: the same steps, halved
     assert report["momentum_flux_N"] == pytest.approx(JetConfig().momentum_flux, rel=1e-12)
     np.testing.assert_array_equal(np.array(report["force"]), 0.5 * flat_full.force)
+    # the mirror image cancels the half surface's y force: not reported as if it were that force
+    assert report["force_N"][1] is None
+    assert report["force_N"][::2] == [0.5 * flat_full.mean_force[0], 0.5 * flat_full.mean_force[2]]
     full_dir = Path(flat_full.run_dir)
     for name in ("solid.obj", "column.pda", "steps.csv"):
         assert (run_dir / name).read_bytes() == (full_dir / name).read_bytes(), name

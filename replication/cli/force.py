@@ -46,6 +46,10 @@ the symmetry (splitter) plane, as in the paper's half-domain simulation; --full-
 whole jet (off the centre line too) onto a surface spanning both sides of y = 0. A jet that
 partly misses the surface is reported with the share of its mass flow that misses. Lengths
 are in mm.
+
+With --solver sph the half jet is simulated as the whole jet on the surface joined to its
+mirror image in y = 0 (the engine has no symmetry plane), and the forces are halved: the y
+force of the half surface alone is not simulated, and --json gives force_N's y as null.
 """  # noqa: E501 - a command to copy whole
 
 

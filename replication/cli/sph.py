@@ -274,11 +274,19 @@ def force_sph(
 
 def sph_report(shared: dict[str, Any], result: Any) -> dict[str, Any]:
     """The JSON object of ``replication force --solver sph --json``: the keys shared with the
-    thin-sheet model, then the simulation's."""
+    thin-sheet model, then the simulation's.
+
+    ``force_N`` means what it means for the thin-sheet model: the push on the surface given.
+    For the half jet, simulated as the whole jet on the surface joined to its mirror image,
+    the halved y force is about zero whatever the half surface feels (the image cancels it),
+    so its y component is null, not a number another solver's could be compared with; the
+    simulation's own series (``mean_force``, ``force``) keep the halved values.
+    """
+    force = [float(v) for v in result.mean_force]
     return {
         **shared,
         "axial_force_N": result.mean_axial,
-        "force_N": [float(v) for v in result.mean_force],
+        "force_N": [force[0], None, force[2]] if result.mirrored else force,
         "momentum_flux_N": result.momentum_flux,
         "over_rho_q_v": result.mean_axial / result.momentum_flux,
         "over_measured_flux": result.mean_axial / result.measured_momentum_flux,
