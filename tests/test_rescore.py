@@ -7,6 +7,7 @@ milliseconds; one test runs the real engine at coarse particles.
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -207,6 +208,34 @@ def test_casestudy_rescore_runs_end_to_end_and_resumes_from_the_cache(
     again = json.loads(capsys.readouterr().out)
     assert CALLS == [] and all(r["cached"] for r in again["rescore"])
     assert [r["sph_N"] for r in again["rescore"]] == [r["sph_N"] for r in first["rescore"]]
+
+
+@pytest.mark.parametrize("json_out", [True, False])
+def test_a_rescore_whose_every_simulation_failed_exits_1_after_its_report(
+    tmp_path, monkeypatch, capsys, fake_engine, json_out
+):
+    # was: exit status 0, as if SPH had judged the GA's winners
+    import sph_fake
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sph_fake, "FORCE_STATUS", "timeout")
+    args = RESCORED if json_out else [a for a in RESCORED if a != "--json"]
+    assert main(args) == 1
+    out, err = capsys.readouterr()
+    total = len(pd.read_csv(tmp_path / "out" / "data" / "casestudy_rescore.csv"))
+    assert total >= 3 and CALLS  # the two references and the run's winners (repeats simulated once)
+    assert err.splitlines()[-1] + "\n" == (
+        f"replication casestudy: error: every SPH re-scoring simulation failed ({total} timeout): no "
+        f"surface was judged by SPH; {Path('out') / 'casestudy.md'} gives each one's reason\n"
+    )
+    if json_out:  # the object is printed whole before the error
+        assert all(r["status"] == "timeout" for r in json.loads(out)["rescore"])
+    else:
+        assert f"SPH re-scoring: {total} surfaces (0 from the cache, {total} failed)" in out
+    assert "| timeout: forced timeout |" in (tmp_path / "out" / "casestudy.md").read_text()
+    # one surface judged is a result: exit 0
+    monkeypatch.setattr(sph_fake, "FORCE_STATUS", None)
+    assert main([*args, "--resume"]) == 0
 
 
 def test_a_plain_resume_continues_the_runs_rescoring_and_other_options_are_refused(

@@ -29,6 +29,7 @@ from replication.cli.casestudy_sph import (
     RESCORE_NAME,
     add_rescore_options,
     check_fitness_record,
+    check_rescored,
     report_rescored,
     rescore_config,
     rescore_hint,
@@ -376,13 +377,14 @@ def _cmd_casestudy(args: argparse.Namespace) -> int:
             "run_dir": str(plan.run_dir), "report": str(path), "seconds": time.perf_counter() - start,
             **({} if results.rescore is None else {"rescore": results.rescore.to_dict("records")}),
         })  # fmt: skip
-        return 0
-    for _, r in results.runs.iterrows():
-        print(f"run {r['run']}: best force {r['best_N']:.4f} N after {r['evaluations']} evaluations "
-              f"({r['cache_hits']} saved by the cache, {r['failures']} failed)")  # fmt: skip
-    for line in rescore_summary(results):
-        print(line)
-    print(f"wrote {path} ({time.perf_counter() - start:.1f} s; GA checkpoints in {plan.run_dir})")
+    else:
+        for _, r in results.runs.iterrows():
+            print(f"run {r['run']}: best force {r['best_N']:.4f} N after {r['evaluations']} evaluations "
+                  f"({r['cache_hits']} saved by the cache, {r['failures']} failed)")  # fmt: skip
+        for line in rescore_summary(results):
+            print(line)
+        print(f"wrote {path} ({time.perf_counter() - start:.1f} s; GA checkpoints in {plan.run_dir})")
+    check_rescored(results, path)
     return 0
 
 

@@ -176,6 +176,28 @@ def rescore_summary(results: Any) -> list[str]:
     return lines
 
 
+def check_rescored(results: Any, report: Any) -> None:
+    """Fail the command (after its report and data are written) when ``--rescore sph`` scored
+    no surface: an exit status of 0 told a script that SPH had judged the GA's winners.
+
+    Raises
+    ------
+    SimulationError
+        Every re-scoring simulation failed; the message counts them by status.
+    """
+    frame = results.rescore
+    if frame is None or len(frame) == 0 or bool((frame["status"] == "ok").any()):
+        return
+    from replication.errors import SimulationError
+
+    counts = frame["status"].value_counts(sort=False)
+    how = ", ".join(f"{count} {status}" for status, count in counts.items())
+    raise SimulationError(
+        f"every SPH re-scoring simulation failed ({how}): no surface was judged by SPH; {report} "
+        "gives each one's reason"
+    )
+
+
 def solver_record(args: argparse.Namespace, rescore: Any) -> dict[str, Any] | None:
     """What the GA's fitness is (for ``fitness.json`` and the provenance); None: the thin-sheet model."""
     if getattr(args, "solver", None) != "sph":
