@@ -3,26 +3,34 @@
 import os
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import pytest
 
 from replication.cli import main
+from replication.errors import OutputError
 from replication.io import locks
 
 
-def _held_elsewhere(out: Path) -> subprocess.Popen:
-    """Another process holding ``out`` as a command writing there would."""
-    key = str(Path(os.path.abspath(out)).resolve())
+def _held_elsewhere(out: Path, env: dict[str, str] | None = None) -> subprocess.Popen:
+    """Another process holding ``out`` as a command writing there would (its own code)."""
     script = (
-        "import fcntl, os, sys, time\n"
-        f"fd = os.open({str(locks._lock_file(key))!r}, os.O_RDONLY | os.O_CREAT, 0o644)\n"
-        "fcntl.flock(fd, fcntl.LOCK_EX)\n"
-        "print('held', flush=True)\n"
-        "time.sleep(60)\n"
+        "import sys, time\n"
+        "from replication.io import locks\n"
+        "with locks.held_until_the_command_ends():\n"
+        "    locks.hold_reports_dir(sys.argv[1])\n"
+        "    print('held', flush=True)\n"
+        "    time.sleep(60)\n"
     )
-    holder = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    holder = subprocess.Popen(
+        [sys.executable, "-c", script, str(out)],
+        stdout=subprocess.PIPE,
+        text=True,
+        env=env,
+        cwd=Path(locks.__file__).parents[2],  # where `replication` is imported from, installed or not
+    )
     assert holder.stdout.readline().strip() == "held"
     return holder
 
@@ -73,3 +81,43 @@ def test_the_hold_is_released_when_the_command_ends_and_is_reentrant(tmp_path):
     _stop(_held_elsewhere(out))  # free again: another process takes it
     locks.hold_reports_dir(out)  # outside a command: the library holds nothing
     assert locks._HELD == {}
+
+
+def test_commands_with_different_temporary_directories_exclude_each_other(tmp_path, monkeypatch, capsys):
+    # was: the lock file followed $TMPDIR, so `TMPDIR=/a replication casestudy ...` and
+    # `TMPDIR=/b replication casestudy ...` into one --output-dir both ran
+    (tmp_path / "tmp-a").mkdir()
+    (tmp_path / "tmp-b").mkdir()
+    out = tmp_path / "mix"
+    holder = _held_elsewhere(out, env={**os.environ, "TMPDIR": str(tmp_path / "tmp-a")})
+    try:
+        monkeypatch.setenv("TMPDIR", str(tmp_path / "tmp-b"))
+        monkeypatch.setattr(tempfile, "tempdir", None)  # gettempdir() reads $TMPDIR again
+        assert tempfile.gettempdir() == str(tmp_path / "tmp-b")
+        with (
+            locks.held_until_the_command_ends(),
+            pytest.raises(OutputError, match="in use by another command"),
+        ):
+            locks.hold_reports_dir(out)
+    finally:
+        _stop(holder)
+    assert not any((tmp_path / "tmp-a").iterdir()) and not any((tmp_path / "tmp-b").iterdir())
+
+
+def test_another_users_lock_file_is_opened_without_creating_it(tmp_path, monkeypatch):
+    # fs.protected_regular refuses O_CREAT on another user's file in a sticky directory
+    path = tmp_path / "x.lock"
+    path.touch()
+    real = os.open
+
+    def protected(name, flags, *mode):
+        if flags & os.O_CREAT:
+            raise PermissionError(13, "Permission denied")
+        return real(name, flags, *mode)
+
+    monkeypatch.setattr(os, "open", protected)
+    fd = locks._open_lock(path)
+    try:
+        assert os.fstat(fd).st_ino == path.stat().st_ino
+    finally:
+        os.close(fd)

@@ -6,11 +6,13 @@ over seed 2's data, both with exit 0. Each data set is published whole (a lock o
 ``data/``), but a page is drawn from the data after the save, so the pair must not mix.
 
 :func:`hold_reports_dir` takes an exclusive ``flock`` on a lock file named after the
-directory's resolved path, in the system's temporary directory (no file among the reports,
-and the directory need not exist yet), for as long as the command runs
-(:func:`held_until_the_command_ends`); a second command is refused at once. The system
-releases the lock when the process ends, however it ends. Where ``fcntl`` is missing, or the
-lock file cannot be opened (another user's), the directory is not guarded, as before.
+directory's resolved path, in ``/tmp`` (no file among the reports, and the directory need
+not exist yet), for as long as the command runs (:func:`held_until_the_command_ends`); a
+second command is refused at once. The system releases the lock when the process ends,
+however it ends. The place is fixed, not ``$TMPDIR``: two commands run with different
+temporary directories must still find each other's lock (``tempfile.gettempdir()`` only
+where there is no writable ``/tmp``). Where ``fcntl`` is missing, or no lock file can be
+opened, the directory is not guarded, as before.
 """
 
 from __future__ import annotations
@@ -47,12 +49,26 @@ def held_until_the_command_ends() -> Iterator[None]:
             _STACK.reset(token)
 
 
+#: Where the lock files are: one place per machine, whatever ``$TMPDIR`` says.
+LOCK_DIR = "/tmp"
+
+
 def _lock_file(key: str) -> Path:
     import hashlib  # (here, not at import: every command's start-up imports this module)
     import tempfile
 
     digest = hashlib.sha256(key.encode()).hexdigest()[:20]
-    return Path(tempfile.gettempdir()) / f"replication-reports-{digest}.lock"
+    shared = os.path.isdir(LOCK_DIR) and os.access(LOCK_DIR, os.W_OK | os.X_OK)
+    return Path(LOCK_DIR if shared else tempfile.gettempdir()) / f"replication-reports-{digest}.lock"
+
+
+def _open_lock(path: Path) -> int:
+    """A descriptor of the lock file, made if missing. Another user's file in the sticky
+    ``/tmp`` is opened without ``O_CREAT``, which ``fs.protected_regular`` would refuse."""
+    try:
+        return os.open(path, os.O_RDONLY | os.O_CREAT, 0o644)
+    except PermissionError:
+        return os.open(path, os.O_RDONLY)
 
 
 def hold_reports_dir(out: str | os.PathLike[str], what: str = "--output-dir") -> None:
@@ -73,8 +89,8 @@ def hold_reports_dir(out: str | os.PathLike[str], what: str = "--output-dir") ->
     except ImportError:  # pragma: no cover - not on POSIX
         return
     try:
-        fd = os.open(_lock_file(key), os.O_RDONLY | os.O_CREAT, 0o644)
-    except OSError:  # pragma: no cover - another user's lock file, a read-only /tmp
+        fd = _open_lock(_lock_file(key))
+    except OSError:  # pragma: no cover - an unreadable lock file of another user's
         return
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
