@@ -197,16 +197,24 @@ def test_casestudy_rescore_runs_end_to_end_and_resumes_from_the_cache(
     monkeypatch.chdir(tmp_path)
     args = RESCORED
     assert main(args) == 0
-    first = json.loads(capsys.readouterr().out)
+    out, err = capsys.readouterr()
+    first = json.loads(out)
     assert [r["surface"] for r in first["rescore"]][:2] == ["flat plate", "pelton bucket"]
     assert not any(r["cached"] for r in first["rescore"]) and CALLS
+    simulated = len(CALLS)  # the cost ahead is counted before the first simulation, then counted down
+    assert (
+        f"SPH re-scoring: {simulated} distinct surfaces, 0 from the cache, {simulated} to simulate\n" in err
+    )
+    assert f"; 1/{simulated}, about " in err and f"; {simulated}/{simulated}, the last)" in err
     report = (tmp_path / "out" / "casestudy.md").read_text()
     assert "## The GA's best surfaces re-scored by SPH" in report and "Best by SPH" in report
     assert (tmp_path / "out" / "data" / "casestudy_rescore_cost.csv").is_file()
     CALLS.clear()
     assert main([*args, "--resume"]) == 0
-    again = json.loads(capsys.readouterr().out)
+    out, err = capsys.readouterr()
+    again = json.loads(out)
     assert CALLS == [] and all(r["cached"] for r in again["rescore"])
+    assert f"{simulated} distinct surfaces, {simulated} from the cache, 0 to simulate" in err
     assert [r["sph_N"] for r in again["rescore"]] == [r["sph_N"] for r in first["rescore"]]
 
 
@@ -236,6 +244,29 @@ def test_a_rescore_whose_every_simulation_failed_exits_1_after_its_report(
     # one surface judged is a result: exit 0
     monkeypatch.setattr(sph_fake, "FORCE_STATUS", None)
     assert main([*args, "--resume"]) == 0
+
+
+def test_rescore_progress_counts_down_at_the_measured_rate(tmp_path, capsys):
+    from replication.casestudy.sph_batch import Scored
+    from replication.cli.casestudy_sph import RescoreProgress
+
+    now = [100.0]
+    progress = RescoreProgress(clock=lambda: now[0])
+    ok = fake_sph(flat_plate_cloud(12), None, CONFIG.jet, SETTINGS, timeout=1, run_dir=tmp_path)
+    progress.plan(1, 3)
+    progress(Scored("flat plate", "k", "ok", None, ok, True, None))
+    now[0] += 600.0  # two at once: the first two finish 10 min in
+    progress(Scored("GA run 0 #1", "k", "ok", None, ok, False, None))
+    progress(Scored("GA run 0 #2", "k", "blowup", "runaway", None, False, None))
+    now[0] += 30.0
+    progress(Scored("GA run 0 #3", "k", "ok", None, ok, False, None))
+    assert capsys.readouterr().err.splitlines() == [
+        "SPH re-scoring: 4 distinct surfaces, 1 from the cache, 3 to simulate",
+        "SPH flat plate: 13 N (cache)",
+        "SPH GA run 0 #1: 13 N (simulated in 0.0 s; 1/3, about 20 min left)",
+        "SPH GA run 0 #2: blowup: runaway (2/3, about 5 min left)",
+        "SPH GA run 0 #3: 13 N (simulated in 0.0 s; 3/3, the last)",
+    ]
 
 
 def test_a_plain_resume_continues_the_runs_rescoring_and_other_options_are_refused(

@@ -159,6 +159,7 @@ def rescore_runs(
     workers: int = 1,
     on_result: Callable[[Any], None] | None = None,
     simulate: Callable[..., Any] | None = None,
+    on_plan: Callable[[int, int], None] | None = None,
 ) -> RescoreResults:
     """SPH scores of the ``rescore.top`` best distinct surfaces of each run and of the references.
 
@@ -177,6 +178,9 @@ def rescore_runs(
         Called with each :class:`~.sph_batch.Scored` as it becomes known (progress).
     simulate : callable, optional
         Replaces :func:`~.sph.sph_force` (tests).
+    on_plan : callable, optional
+        Called before any simulation with the numbers of distinct surfaces read from the cache
+        and to be simulated (see :func:`~.sph_batch.score_surfaces`).
 
     Returns
     -------
@@ -207,6 +211,7 @@ def rescore_runs(
     scored = score_surfaces(
         tasks, rescore.settings, jet=config.jet, cache_dir=rescore.cache_dir, executor=executor,
         max_parallel=max(1, int(workers)), timeout=rescore.timeout, on_result=on_result, simulate=simulate,
+        on_plan=on_plan,
     )  # fmt: skip
     rho_q_v = config.jet.momentum_flux
     rows = [_row(*entry, s, rho_q_v) for entry, s in zip(entries, scored)]

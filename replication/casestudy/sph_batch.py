@@ -292,6 +292,7 @@ def score_surfaces(
     simulate_missing: bool = True,
     on_result: Callable[[Scored], None] | None = None,
     simulate: Callable[..., Any] | None = None,
+    on_plan: Callable[[int, int], None] | None = None,
 ) -> list[Scored]:
     """SPH scores of surfaces, from the cache where it has them, else simulated on ``executor``.
 
@@ -319,6 +320,9 @@ def score_surfaces(
         Called with each :class:`Scored` as it becomes known (progress display).
     simulate : callable, optional
         Replaces :func:`~.sph.sph_force` (same signature; picklable by reference): for tests.
+    on_plan : callable, optional
+        Called once the cache is read, before any simulation, with the numbers of distinct
+        surfaces read from the cache and to be simulated (a cost estimate's count).
 
     Returns
     -------
@@ -363,6 +367,8 @@ def score_surfaces(
             todo[key] = task
         else:
             record(Scored(task.name, key, "missing", "not in the SPH cache", None, False, None))
+    if on_plan is not None:
+        on_plan(len(done), len(todo))
     if todo:
         cache_dir.mkdir(parents=True, exist_ok=True)
         _remove_abandoned_scratch(cache_dir)

@@ -27,10 +27,10 @@ from typing import Any
 from replication.cli.casestudy_sph import (
     FITNESS_NAME,
     RESCORE_NAME,
+    RescoreProgress,
     add_rescore_options,
     check_fitness_record,
     check_rescored,
-    report_rescored,
     rescore_config,
     rescore_hint,
     rescore_summary,
@@ -83,8 +83,11 @@ is refused for them, since it holds the paper's results and the README's headlin
 
 --rescore sph simulates the best distinct surfaces of each run, the flat plate and the bucket
 by SPH (the fitness of record: the thin-sheet model ranks cup-like surfaces unlike SPH) on the
-same executor, and the report ranks them by SPH with a cost table. Every simulation is cached by
-content (--cache-dir): after Ctrl-C, the resume command reuses every finished simulation.
+same executor, and the report ranks them by SPH with a cost table. Before the first simulation
+it says how many are to be simulated (the rest come from the cache), and after each one the
+time left at the rate measured so far. Every simulation is cached by content (--cache-dir):
+after Ctrl-C, the resume command reuses every finished simulation. A re-scoring whose every
+simulation failed exits with status 1, after its report.
 """
 
 SETTINGS = ("runs", "generations", "population", "seed")
@@ -311,10 +314,12 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
                 def tick(state: Any) -> None:
                     bar.update(1, run=state.run, best=f"{state.history[-1]['best_so_far']:.3f} N")
 
+                rescored = RescoreProgress()
                 results = run_casestudy(
                     config, run_dir=plan.run_dir, pool_factory=pool, resume=plan.resume, on_generation=tick,
                     command=args.invocation, quick=plan.quick, timing_repeats=20 if plan.quick else 100,
-                    rescore=plan.rescore, on_rescored=report_rescored, fitness=fitness, solver=plan.solver,
+                    rescore=plan.rescore, on_rescored=rescored, fitness=fitness, solver=plan.solver,
+                    on_rescore_plan=rescored.plan,
                 )  # fmt: skip
         except KeyboardInterrupt:
             from replication.casestudy.rundir import CONFIG_NAME

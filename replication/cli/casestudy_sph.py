@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
+from collections.abc import Callable
 from typing import Any
 
 from replication.cli.common import directory_name, positive_int
@@ -143,17 +145,51 @@ def rescore_hint(args: argparse.Namespace) -> list[str]:
     return words
 
 
-def report_rescored(scored: Any) -> None:
-    """One line on stderr per re-scored surface (progress)."""
-    if scored.ok:
-        what = f"{scored.result.mean_axial:.4g} N"
-    else:
-        what = f"{scored.status}: {scored.reason}"
-    if scored.cached:
-        source = "cache"
-    else:
-        source = f"simulated in {scored.result.wall_seconds:.1f} s" if scored.result is not None else ""
-    print(f"SPH {scored.name}: {what}" + (f" ({source})" if source else ""), file=sys.stderr)
+def _span(seconds: float) -> str:
+    """A rough duration: ``40 s``, ``12 min``, ``3.5 h``."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+class RescoreProgress:
+    """The progress of ``--rescore sph`` on stderr, with the cost still ahead.
+
+    Once the cache is read (:meth:`plan`), one line says how many distinct surfaces are to be
+    simulated; then one line per re-scored surface, and after each simulation the time left
+    at the rate measured so far (simulations finished over the wall time since the plan: it
+    counts the simulations running at once).
+    """
+
+    def __init__(self, clock: Callable[[], float] = time.monotonic) -> None:
+        self.clock = clock
+        self.started: float | None = None
+        self.to_simulate = 0
+        self.simulated = 0
+
+    def plan(self, cached: int, to_simulate: int) -> None:
+        self.started, self.to_simulate = self.clock(), to_simulate
+        print(
+            f"SPH re-scoring: {cached + to_simulate} distinct surfaces, {cached} from the cache, "
+            f"{to_simulate} to simulate",
+            file=sys.stderr,
+        )
+
+    def __call__(self, scored: Any) -> None:
+        what = f"{scored.result.mean_axial:.4g} N" if scored.ok else f"{scored.status}: {scored.reason}"
+        if scored.cached:
+            source = "cache"
+        else:
+            self.simulated += 1
+            source = f"simulated in {scored.result.wall_seconds:.1f} s" if scored.result is not None else ""
+            if self.started is not None and self.to_simulate:
+                left = self.to_simulate - self.simulated
+                rate = (self.clock() - self.started) / self.simulated
+                ahead = f"about {_span(left * rate)} left" if left > 0 else "the last"
+                source = "; ".join(filter(None, (source, f"{self.simulated}/{self.to_simulate}, {ahead}")))
+        print(f"SPH {scored.name}: {what}" + (f" ({source})" if source else ""), file=sys.stderr)
 
 
 def rescore_summary(results: Any) -> list[str]:

@@ -244,6 +244,7 @@ def run_casestudy(
     rescore: RescoreConfig | None = None,
     on_rescored: Callable[[Any], None] | None = None,
     simulate: Callable[..., Any] | None = None,
+    on_rescore_plan: Callable[[int, int], None] | None = None,
     fitness: Callable[[np.ndarray], float] | None = None,
     solver: dict[str, Any] | None = None,
 ) -> CaseStudyResults:
@@ -272,6 +273,9 @@ def run_casestudy(
         the same executor (:mod:`replication.casestudy.rescore`).
     on_rescored : callable, optional
         Called with each re-scored surface as it becomes known (progress display).
+    on_rescore_plan : callable, optional
+        Called before the re-scoring's first simulation with the numbers of distinct surfaces
+        read from the SPH cache and to be simulated (the cost estimate).
     simulate : callable, optional
         Replaces the SPH simulation (tests; see :func:`.sph_batch.score_surfaces`).
     fitness : callable, optional
@@ -299,7 +303,7 @@ def run_casestudy(
             pool = dispatcher.executor()
             rescored = rescore_runs(
                 [s for s, _ in states], config, rescore, executor=pool, workers=worker_count(pool),
-                on_result=on_rescored, simulate=simulate,
+                on_result=on_rescored, simulate=simulate, on_plan=on_rescore_plan,
             )  # fmt: skip
     for state, wall in states:
         k = state.run
