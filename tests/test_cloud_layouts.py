@@ -257,3 +257,33 @@ def test_a_dataframe_without_axis_names_keeps_its_column_order_and_bad_names_are
     with pytest.raises(InputError, match=r"a structured array of 2 field\(s\)") as caught:
         as_cloud(np.zeros(4, dtype=[("x", "f8"), ("y", "f8")]))
     assert type(caught.value) is InputError
+
+
+@pytest.mark.parametrize("order", list(itertools.permutations(range(3))))
+@pytest.mark.parametrize("where", ["inner", "outer"])
+def test_hierarchical_columns_name_the_axes_in_any_level(order, where):
+    # was: MultiIndex columns ("p", "z"), ("p", "x"), ("p", "y") read as text named no axis,
+    # so the columns were taken in their order and the axes swapped without a word
+    import pandas as pd
+
+    from replication.surfaces.cloud import as_cloud
+
+    names = [("pos", "xyz"[axis]) if where == "inner" else ("xyz"[axis], "mean") for axis in order]
+    frame = pd.DataFrame(CLOUD[:, list(order)], columns=pd.MultiIndex.from_tuples(names))
+    np.testing.assert_array_equal(as_cloud(frame), CLOUD)
+
+
+def test_hierarchical_columns_whose_levels_disagree_or_say_nothing():
+    import pandas as pd
+
+    from replication.errors import InputError
+    from replication.surfaces.cloud import as_cloud
+
+    plain = pd.MultiIndex.from_tuples([("a", "e"), ("a", "n"), ("b", "h")])
+    np.testing.assert_array_equal(as_cloud(pd.DataFrame(CLOUD, columns=plain)), CLOUD)  # their order
+    crossed = pd.MultiIndex.from_tuples([("x", "z"), ("y", "x"), ("z", "y")])
+    with pytest.raises(InputError, match=r"the column levels name the axes in different orders \(level 0"):
+        as_cloud(pd.DataFrame(CLOUD, columns=crossed))
+    twice = pd.MultiIndex.from_tuples([("x", "lo"), ("x", "hi"), ("y", "mid")])
+    with pytest.raises(InputError, match=r"the columns x, x, y name the axis x more than once"):
+        as_cloud(pd.DataFrame(CLOUD, columns=twice))

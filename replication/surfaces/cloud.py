@@ -6,6 +6,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import astuple, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -195,21 +196,48 @@ def _named_columns(points: object, name: str) -> object:
     columns = getattr(points, "columns", None)
     if columns is None or not hasattr(points, "to_numpy") or len(columns) != 3:
         return points
-    from replication.io.axisnames import axis_order
-
     try:
-        order = axis_order(Path(name), [str(c) for c in columns], what="columns")
+        order = _column_order(columns, name)
     except CloudFileError as exc:  # not a file: the error of an argument
         raise InputError(str(exc)) from None
     # (by position through numpy: a frame-like object need not have pandas' .iloc)
     return points if order is None else np.asarray(points.to_numpy())[:, order]
 
 
+def _column_order(columns: Any, name: str) -> list[int] | None:
+    """The x, y, z order a frame's column names say (None: their order).
+
+    The levels of hierarchical columns are read one by one: the level that names the axes
+    decides, wherever it is (``("pos", "x")`` as ``("x", "mean")`` from a ``groupby().agg``).
+    Their tuples as text named no axis, so ``z, x, y`` under one heading kept its order.
+    """
+    from replication.io.axisnames import axis_name, axis_order
+
+    levels = getattr(columns, "nlevels", 1)
+    if levels == 1:
+        return axis_order(Path(name), [str(c) for c in columns], what="columns")
+    orders: dict[int, list[int]] = {}
+    for level in range(levels):
+        labels = [str(c) for c in columns.get_level_values(level)]
+        if any(axis_name(label) in ("x", "y", "z") for label in labels):
+            orders[level] = axis_order(Path(name), labels, what="columns") or [0, 1, 2]
+    if len({tuple(order) for order in orders.values()}) > 1:
+        said = "; ".join(
+            f"level {level} ({', '.join(map(str, columns.get_level_values(level)))}) puts them {order}"
+            for level, order in orders.items()
+        )
+        raise InputError(
+            f"{name}: the column levels name the axes in different orders ({said}): name them in one level"
+        )
+    order = next(iter(orders.values()), None)
+    return None if order == [0, 1, 2] else order
+
+
 def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
     """Validate a point cloud and return it as a float64 array of shape (n, 3).
 
-    A pandas DataFrame's column names, or a structured array's field names, say which column
-    is which axis, as a cloud file's header does (``z, x, y`` is reordered; names of no axis
+    A pandas DataFrame's column names (in any level of hierarchical columns), or a structured
+    array's field names, say which column is which axis, as a cloud file's header does (``z, x, y`` is reordered; names of no axis
     keep their order).
 
     Raises
