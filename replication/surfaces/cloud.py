@@ -237,8 +237,8 @@ def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
     """Validate a point cloud and return it as a float64 array of shape (n, 3).
 
     A pandas DataFrame's column names (in any level of hierarchical columns), or a structured
-    array's field names, say which column is which axis, as a cloud file's header does (``z, x, y`` is reordered; names of no axis
-    keep their order).
+    array's field names, say which column is which axis, as a cloud file's header does
+    (``z, x, y`` is reordered; names of no axis keep their order).
 
     Raises
     ------
