@@ -117,3 +117,17 @@ def test_quick_sph_report(quick_reports, quick_reports_copy):
     assert "[The case study on a real SPH solver](sph.md)" in (quick_reports / "index.md").read_text()
     assert "[sph.md](sph.md)" in (quick_reports / "casestudy.md").read_text()
     assert render_sph(quick_reports_copy).read_text() == text  # re-rendering from the data changes nothing
+
+
+def test_the_note_on_cached_wall_times_says_how_many_came_from_the_cache():
+    # was: "taken from the SPH cache where it held them" also when every simulation was run
+    from replication.report.sph import _cache_note
+
+    assert _cache_note({}, 14) == ""  # no cache
+    assert _cache_note({"sph_cache": "c", "sph_cache_hits": 0}, 14) == (
+        " Every simulation was run for this study (none was in the SPH cache)."
+    )
+    assert _cache_note({"sph_cache": "c", "sph_cache_hits": 3}, 14).startswith(
+        " 3 of the 14 simulations were read from the SPH cache: their wall times are those of the runs"
+    )
+    assert "where it held them" in _cache_note({"sph_cache": "c"}, 14)  # saved before the count

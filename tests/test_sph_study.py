@@ -96,7 +96,9 @@ def test_a_study_stopped_by_ctrl_c_keeps_its_finished_simulations_in_the_cache(t
     monkeypatch.setattr("replication.casestudy.sph.sph_force", counting)
     again = run_sph_study(quick, cache_dir=tmp_path / "cache")
     assert len(simulated) == len(quick.runs()) - 2  # only what was missing
+    assert again.provenance["sph_cache_hits"] == 2  # counted for the report's note on wall times
     fresh = run_sph_study(quick)  # no cache: the same study
+    assert "sph_cache_hits" not in fresh.provenance
     for name in ("series", "shapes", "hypotheses"):
         pd.testing.assert_frame_equal(getattr(again, name), getattr(fresh, name))
     columns = [c for c in fresh.runs.columns if not c.startswith("wall_s")]  # (timings)

@@ -245,6 +245,18 @@ def prepare_cache(cache_dir: str | os.PathLike[str]) -> Path:
     return cache_dir
 
 
+def reusable(result: Any, timeout: float) -> bool:
+    """Whether :func:`cached_sph_force` takes a cache entry's result as it is: a success, a
+    blow-up (the flow's own outcome, the same on every rerun) or a timeout under a limit at
+    least ``timeout``. An absent entry, a crash (a full disk, no memory: the machine's, not the
+    flow's) or a timeout under a shorter limit is simulated again."""
+    return result is not None and (
+        result.ok
+        or result.status == "blowup"
+        or (result.status == "timeout" and result.wall_seconds >= 0.99 * timeout)
+    )
+
+
 def cached_sph_force(
     points: np.ndarray,
     triangles: np.ndarray,
@@ -266,14 +278,8 @@ def cached_sph_force(
     timeout = DEFAULT_TIMEOUT if timeout is None else timeout
     key = cache_key(points, triangles, jet, settings)
     result = read_entry(cache_dir, key)
-    if result is not None and (
-        result.ok
-        or result.status == "blowup"  # the flow's own outcome, the same on every rerun
-        or (result.status == "timeout" and result.wall_seconds >= 0.99 * timeout)
-    ):
+    if reusable(result, timeout):
         return result
-    # absent, or a crash (a full disk, no memory: the machine's, not the flow's) or a timeout
-    # under a shorter limit: simulated again
     Path(cache_dir).mkdir(parents=True, exist_ok=True)
     task = SurfaceTask(name, points, triangles)
     return _simulate_into_cache(task, jet, settings, str(cache_dir), key, timeout, None)

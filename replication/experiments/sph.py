@@ -15,7 +15,7 @@ import concurrent.futures as cf
 import functools
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -185,6 +185,19 @@ def _cached_surface_force(
     )
 
 
+def _cache_hits(plan: Sequence[Run], config: SPHStudyConfig, cache_dir: Any) -> int:
+    """The study's simulations that the cache will give as they are (before any is run)."""
+    from replication.casestudy.sph_batch import cache_key, read_entry, reusable
+
+    hits = 0
+    for run in plan:
+        surface = SHAPES[run.shape]()
+        settings = run.settings(config.duration, config.jet.velocity)
+        key = cache_key(surface.points, surface.triangles, config.jet, settings)
+        hits += reusable(read_entry(cache_dir, key), config.timeout)
+    return hits
+
+
 def run_sph_study(
     config: SPHStudyConfig,
     *,
@@ -232,15 +245,18 @@ def run_sph_study(
     if isinstance(max_parallel, bool) or not isinstance(max_parallel, int) or max_parallel < 1:
         raise InputError(f"max_parallel must be a positive integer, got {max_parallel!r}")
     through_cache = score is None and cache_dir is not None
+    plan = config.runs()
+    velocity = config.jet.velocity
+    hits = 0
     if through_cache:
         from replication.casestudy.sph_batch import prepare_cache
 
         prepare_cache(cache_dir)  # (the scratch a killed study left is removed)
+        hits = _cache_hits(plan, config, cache_dir)
         score = functools.partial(_cached_surface_force, cache_dir=str(cache_dir))
     score = score or surface_sph_force
     pool = executor if executor is not None else SerialExecutor()
     started = time.perf_counter()
-    plan = config.runs()
     results: dict[int, Any] = {}
 
     def finished(k: int, future: cf.Future) -> None:
@@ -249,7 +265,6 @@ def run_sph_study(
             on_run(plan[k].label)
 
     timed = functools.partial(score, timeout=config.timeout)
-    velocity = config.jet.velocity
     tasks = [
         (k, timed, (SHAPES[plan[k].shape](), config.jet, plan[k].settings(config.duration, velocity)))
         for k in sorted(range(len(plan)), key=lambda k: plan[k].radius)  # finest (longest) first
@@ -289,7 +304,7 @@ def run_sph_study(
         run_seconds=time.perf_counter() - started,
         simulation_seconds=float(runs["wall_s"].sum()),
         simulations_at_once=max_parallel,
-        **({"sph_cache": str(cache_dir)} if through_cache else {}),
+        **({"sph_cache": str(cache_dir), "sph_cache_hits": hits} if through_cache else {}),
     )
     return SPHStudyResults(
         config=config,

@@ -180,12 +180,7 @@ def render_sph(out_dir: str | os.PathLike[str]) -> Path:
         else ""
     )
     duration = 1e3 * config["duration"]
-    cache_note = (
-        " The simulations were taken from the SPH cache where it held them: a wall time is that of the "
-        "run that made the entry."
-        if prov.get("sph_cache")
-        else ""
-    )
+    cache_note = _cache_note(prov, len(runs))
     at_once = int(prov.get("simulations_at_once", 1))  # data saved before it was recorded: one at a time
     beside = "one at a time" if at_once == 1 else f"{at_once} at a time, each on its own core"
     base = prov["sph_settings"]
@@ -356,3 +351,22 @@ replication force flat.csv --solver sph --particle-radius 0.75 --json   # one su
     path = out / "sph.md"
     write_report(path, text)
     return path
+
+
+def _cache_note(prov: dict[str, Any], simulations: int) -> str:
+    """What the SPH cache gave the study: its wall times are those of the runs that made the
+    entries. A study saved before the hits were counted says so in general terms."""
+    if not prov.get("sph_cache"):
+        return ""
+    hits = prov.get("sph_cache_hits")
+    if hits is None:
+        return (
+            " The simulations were taken from the SPH cache where it held them: a wall time is that of "
+            "the run that made the entry."
+        )
+    if hits == 0:
+        return " Every simulation was run for this study (none was in the SPH cache)."
+    return (
+        f" {hits} of the {simulations} simulations were read from the SPH cache: their wall times are "
+        "those of the runs that made the entries."
+    )
