@@ -271,6 +271,10 @@ def test_hierarchical_columns_name_the_axes_in_any_level(order, where):
     names = [("pos", "xyz"[axis]) if where == "inner" else ("xyz"[axis], "mean") for axis in order]
     frame = pd.DataFrame(CLOUD[:, list(order)], columns=pd.MultiIndex.from_tuples(names))
     np.testing.assert_array_equal(as_cloud(frame), CLOUD)
+    # flattened to tuple labels (to_flat_index(), as after a groupby().agg): read the same
+    flat = frame.set_axis(frame.columns.to_flat_index(), axis=1)
+    assert isinstance(flat.columns[0], tuple)
+    np.testing.assert_array_equal(as_cloud(flat), CLOUD)
 
 
 def test_hierarchical_columns_whose_levels_disagree_or_say_nothing():
@@ -282,8 +286,17 @@ def test_hierarchical_columns_whose_levels_disagree_or_say_nothing():
     plain = pd.MultiIndex.from_tuples([("a", "e"), ("a", "n"), ("b", "h")])
     np.testing.assert_array_equal(as_cloud(pd.DataFrame(CLOUD, columns=plain)), CLOUD)  # their order
     crossed = pd.MultiIndex.from_tuples([("x", "z"), ("y", "x"), ("z", "y")])
-    with pytest.raises(InputError, match=r"the column levels name the axes in different orders \(level 0"):
+    with pytest.raises(
+        InputError, match=r"name different axes for the same columns \(level 0: x, y, z; level 1"
+    ):
         as_cloud(pd.DataFrame(CLOUD, columns=crossed))
+    # a level whose names make no order is passed over when another level makes one
+    stray = pd.MultiIndex.from_tuples([("x", "z"), ("y", "w"), ("z", "v")])
+    np.testing.assert_array_equal(as_cloud(pd.DataFrame(CLOUD, columns=stray)), CLOUD)
+    with pytest.raises(
+        InputError, match=r"a frame of 6 columns \(0, 1, 2, 3, 4, 5\): a cloud is three columns"
+    ):
+        as_cloud(pd.DataFrame(np.hstack([CLOUD, CLOUD])))
     twice = pd.MultiIndex.from_tuples([("x", "lo"), ("x", "hi"), ("y", "mid")])
     with pytest.raises(InputError, match=r"the columns x, x, y name the axis x more than once"):
         as_cloud(pd.DataFrame(CLOUD, columns=twice))

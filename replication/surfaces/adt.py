@@ -254,7 +254,9 @@ def adt(
     Parameters
     ----------
     points : array_like, shape (n, 3)
-        The cloud; finite coordinates.
+        The cloud; finite coordinates. A pandas DataFrame's column names (or a structured
+        array's field names) say which column is which axis, in any level of hierarchical
+        columns (see :func:`~replication.surfaces.cloud.as_cloud`).
     depth : {"min", "max", "x", "y", "z"}
         Depth axis rule: the axis of minimum spread (default, a "narrow" surface), of
         maximum spread, or an imposed axis.

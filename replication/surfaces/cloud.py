@@ -194,8 +194,14 @@ def _named_columns(points: object, name: str) -> object:
         except CloudFileError as exc:  # not a file: the error of an argument
             raise InputError(str(exc)) from None
     columns = getattr(points, "columns", None)
-    if columns is None or not hasattr(points, "to_numpy") or len(columns) != 3:
+    if columns is None or not hasattr(points, "to_numpy"):
         return points
+    if len(columns) != 3:
+        shown_names = ", ".join(map(str, list(columns)[:8])) + (", ..." if len(columns) > 8 else "")
+        raise InputError(
+            f"{name}: a frame of {len(columns)} columns ({shown_names}): a cloud is three columns, x, y "
+            "and z; select them (frame[[...]], or frame.xs(...) of hierarchical columns)"
+        )
     try:
         order = _column_order(columns, name)
     except CloudFileError as exc:  # not a file: the error of an argument
@@ -207,27 +213,37 @@ def _named_columns(points: object, name: str) -> object:
 def _column_order(columns: Any, name: str) -> list[int] | None:
     """The x, y, z order a frame's column names say (None: their order).
 
-    The levels of hierarchical columns are read one by one: the level that names the axes
-    decides, wherever it is (``("pos", "x")`` as ``("x", "mean")`` from a ``groupby().agg``).
-    Their tuples as text named no axis, so ``z, x, y`` under one heading kept its order.
+    The levels of hierarchical columns are read one by one, and so are the parts of tuple
+    labels (``to_flat_index()``): the level that names the axes decides, wherever it is
+    (``("pos", "x")`` as ``("x", "mean")`` from a ``groupby().agg``). Their tuples as text
+    named no axis, so ``z, x, y`` under one heading kept its order. A level whose names do not
+    make an order (``("z", "w", "v")`` beside ``("x", "y", "z")``) is passed over when another
+    level makes one; levels that make different orders are refused.
     """
     from replication.io.axisnames import axis_name, axis_order
 
-    levels = getattr(columns, "nlevels", 1)
-    if levels == 1:
-        return axis_order(Path(name), [str(c) for c in columns], what="columns")
+    labels = list(columns)
+    if getattr(columns, "nlevels", 1) > 1:
+        levels = [[str(v) for v in columns.get_level_values(k)] for k in range(columns.nlevels)]
+    elif labels and all(isinstance(c, tuple) for c in labels) and len({len(c) for c in labels}) == 1:
+        levels = [[str(c[k]) for c in labels] for k in range(len(labels[0]))]
+    else:
+        return axis_order(Path(name), [str(c) for c in labels], what="columns")
     orders: dict[int, list[int]] = {}
-    for level in range(levels):
-        labels = [str(c) for c in columns.get_level_values(level)]
-        if any(axis_name(label) in ("x", "y", "z") for label in labels):
-            orders[level] = axis_order(Path(name), labels, what="columns") or [0, 1, 2]
+    refused: list[CloudFileError] = []
+    for k, level in enumerate(levels):
+        if any(axis_name(label) in ("x", "y", "z") for label in level):
+            try:
+                orders[k] = axis_order(Path(name), level, what="columns") or [0, 1, 2]
+            except CloudFileError as exc:
+                refused.append(exc)
+    if not orders and refused:
+        raise refused[0]
     if len({tuple(order) for order in orders.values()}) > 1:
-        said = "; ".join(
-            f"level {level} ({', '.join(map(str, columns.get_level_values(level)))}) puts them {order}"
-            for level, order in orders.items()
-        )
+        said = "; ".join(f"level {k}: {', '.join(levels[k])}" for k in orders)
         raise InputError(
-            f"{name}: the column levels name the axes in different orders ({said}): name them in one level"
+            f"{name}: the column levels name different axes for the same columns ({said}): name the "
+            "axes in one level"
         )
     order = next(iter(orders.values()), None)
     return None if order == [0, 1, 2] else order
