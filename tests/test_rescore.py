@@ -5,6 +5,7 @@ wholly at 13 mm), so that selection, cache, resume, failures and the report are 
 milliseconds; one test runs the real engine at coarse particles.
 """
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -214,7 +215,11 @@ def test_casestudy_rescore_runs_end_to_end_and_resumes_from_the_cache(
     out, err = capsys.readouterr()
     again = json.loads(out)
     assert CALLS == [] and all(r["cached"] for r in again["rescore"])
-    assert f"{simulated} distinct surfaces, {simulated} from the cache, 0 to simulate" in err
+    lines = err.splitlines()
+    plan = lines.index(
+        f"SPH re-scoring: {simulated} distinct surfaces, {simulated} from the cache, 0 to simulate"
+    )
+    assert plan < min(k for k, line in enumerate(lines) if line.endswith("(cache)"))  # the plan first
     assert [r["sph_N"] for r in again["rescore"]] == [r["sph_N"] for r in first["rescore"]]
 
 
@@ -230,20 +235,77 @@ def test_a_rescore_whose_every_simulation_failed_exits_1_after_its_report(
     args = RESCORED if json_out else [a for a in RESCORED if a != "--json"]
     assert main(args) == 1
     out, err = capsys.readouterr()
-    total = len(pd.read_csv(tmp_path / "out" / "data" / "casestudy_rescore.csv"))
-    assert total >= 3 and CALLS  # the two references and the run's winners (repeats simulated once)
+    rows = pd.read_csv(tmp_path / "out" / "data" / "casestudy_rescore.csv")
+    ga = rows[rows["kind"] == "GA"]
+    total, distinct, ga_distinct = len(rows), rows["key"].nunique(), ga["key"].nunique()
+    assert len(ga) == 2 and distinct == len(CALLS)  # a surface listed twice is simulated once
     assert err.splitlines()[-1] + "\n" == (
-        f"replication casestudy: error: every SPH re-scoring simulation failed ({total} timeout): no "
-        f"surface was judged by SPH; {Path('out') / 'casestudy.md'} gives each one's reason\n"
+        f"replication casestudy: error: no GA surface was judged by SPH: every simulation of the GA's 2 "
+        f"surface(s) failed ({ga_distinct} timeout); {Path('out') / 'casestudy.md'} gives each one's reason\n"
     )
     if json_out:  # the object is printed whole before the error
         assert all(r["status"] == "timeout" for r in json.loads(out)["rescore"])
-    else:
-        assert f"SPH re-scoring: {total} surfaces (0 from the cache, {total} failed)" in out
+    else:  # simulations counted once each, as the report's cost table counts them
+        assert (
+            f"SPH re-scoring: {total} surfaces, {distinct} distinct (0 from the cache, {distinct} failed)"
+            in out
+        )
+        assert "ended after 0.0 s" in err and "simulated in" not in err
     assert "| timeout: forced timeout |" in (tmp_path / "out" / "casestudy.md").read_text()
     # one surface judged is a result: exit 0
     monkeypatch.setattr(sph_fake, "FORCE_STATUS", None)
     assert main([*args, "--resume"]) == 0
+
+
+def test_a_resume_may_change_the_sph_timeout_and_simulates_again_what_timed_out(
+    tmp_path, monkeypatch, capsys, fake_engine
+):
+    # was: --resume --sph-timeout 100 of a run whose limit (0.01 s) was too short was refused,
+    # and the run could only be started over
+    import sph_fake
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sph_fake, "FORCE_STATUS", "timeout")
+    assert main([*RESCORED, "--sph-timeout", "0.01"]) == 1
+    capsys.readouterr()
+    CALLS.clear()
+    monkeypatch.setattr(sph_fake, "FORCE_STATUS", None)
+    resume = [
+        "casestudy",
+        "--run-dir",
+        "run",
+        "--resume",
+        "--output-dir",
+        "out",
+        "--executor",
+        "serial",
+        "--json",
+    ]
+    assert main([*resume, "--sph-timeout", "100"]) == 0
+    rescored = json.loads(capsys.readouterr().out)["rescore"]
+    assert CALLS and all(r["status"] == "ok" and not r["cached"] for r in rescored)
+    assert json.loads((tmp_path / "run" / "rescore.json").read_text())["sph_timeout"] == 100
+    CALLS.clear()
+    assert main(resume) == 0 and CALLS == []  # the new limit is the run's from now on
+
+
+def test_a_rescore_that_judged_only_the_reference_shapes_exits_1():
+    from replication.cli.casestudy_sph import check_rescored
+    from replication.errors import SimulationError
+
+    class Results:
+        rescore = pd.DataFrame({
+            "surface": ["flat plate", "pelton bucket", "GA run 0 #1", "GA run 0 #2", "GA run 1 #1"],
+            "kind": ["reference", "reference", "GA", "GA", "GA"],
+            "status": ["ok", "ok", "blowup", "timeout", "blowup"],
+            "key": ["a", "b", "c", "d", "c"],  # run 1's winner is run 0's
+        })  # fmt: skip
+
+    refusal = r"^no GA surface was judged by SPH: every simulation of the GA's 3 surface\(s\) failed "
+    with pytest.raises(SimulationError, match=refusal + r"\(1 blowup, 1 timeout\); r.md gives"):
+        check_rescored(Results, "r.md")
+    Results.rescore.loc[3, "status"] = "ok"
+    check_rescored(Results, "r.md")  # one GA surface judged: a result
 
 
 def test_rescore_progress_counts_down_at_the_measured_rate(tmp_path, capsys):
@@ -251,21 +313,27 @@ def test_rescore_progress_counts_down_at_the_measured_rate(tmp_path, capsys):
     from replication.cli.casestudy_sph import RescoreProgress
 
     now = [100.0]
-    progress = RescoreProgress(clock=lambda: now[0])
+    progress = RescoreProgress(workers=2, clock=lambda: now[0])
     ok = fake_sph(flat_plate_cloud(12), None, CONFIG.jet, SETTINGS, timeout=1, run_dir=tmp_path)
-    progress.plan(1, 3)
+    blown = dataclasses.replace(ok, status="blowup", reason="runaway")
+    progress.plan(1, 5)
     progress(Scored("flat plate", "k", "ok", None, ok, True, None))
-    now[0] += 600.0  # two at once: the first two finish 10 min in
-    progress(Scored("GA run 0 #1", "k", "ok", None, ok, False, None))
-    progress(Scored("GA run 0 #2", "k", "blowup", "runaway", None, False, None))
-    now[0] += 30.0
-    progress(Scored("GA run 0 #3", "k", "ok", None, ok, False, None))
+    now[0] += 600.0  # two at once: the first two end 10 min in, then three more two at a time
+    progress(Scored("GA run 0 #1", "k", "ok", None, ok, False, None))  # its partner ends now too
+    progress(Scored("GA run 0 #2", "k", "blowup", "runaway", blown, False, None))
+    now[0] += 600.0
+    progress(Scored("GA run 0 #3", "k", "error", "a dead worker", None, False, None))
+    progress(Scored("GA run 0 #4", "k", "ok", None, ok, False, None))
+    now[0] += 600.0
+    progress(Scored("GA run 0 #5", "k", "ok", None, ok, False, None))
     assert capsys.readouterr().err.splitlines() == [
-        "SPH re-scoring: 4 distinct surfaces, 1 from the cache, 3 to simulate",
+        "SPH re-scoring: 6 distinct surfaces, 1 from the cache, 5 to simulate",
         "SPH flat plate: 13 N (cache)",
-        "SPH GA run 0 #1: 13 N (simulated in 0.0 s; 1/3, about 20 min left)",
-        "SPH GA run 0 #2: blowup: runaway (2/3, about 5 min left)",
-        "SPH GA run 0 #3: 13 N (simulated in 0.0 s; 3/3, the last)",
+        "SPH GA run 0 #1: 13 N (simulated in 0.0 s; 1/5, about 15 min left)",  # 3 x 10 min / 2
+        "SPH GA run 0 #2: blowup: runaway (ended after 0.0 s; 2/5, about 15 min left)",
+        "SPH GA run 0 #3: error: a dead worker (3/5, about 13 min left)",  # 2 x 20 min / 3
+        "SPH GA run 0 #4: 13 N (simulated in 0.0 s; 4/5, about 5 min left)",
+        "SPH GA run 0 #5: 13 N (simulated in 0.0 s; 5/5, the last)",
     ]
 
 

@@ -327,8 +327,9 @@ def score_surfaces(
     simulate : callable, optional
         Replaces :func:`~.sph.sph_force` (same signature; picklable by reference): for tests.
     on_plan : callable, optional
-        Called once the cache is read, before any simulation, with the numbers of distinct
-        surfaces read from the cache and to be simulated (a cost estimate's count).
+        Called once the cache is read, before ``on_result`` is called for any surface, with
+        the numbers of distinct surfaces not to be simulated (read from the cache, or
+        "missing" when simulating is not allowed) and to be simulated (a cost estimate).
 
     Returns
     -------
@@ -359,22 +360,24 @@ def score_surfaces(
         if on_result is not None:
             on_result(scored)
 
+    given: dict[str, Scored] = {}  # not simulated: reported after the plan
     for task, key in zip(tasks, keys):
-        if key in done or key in todo:
+        if key in todo or key in given:
             continue
         result = read_entry(cache_dir, key)
         if result is not None and result.status == "timeout" and result.wall_seconds < 0.99 * timeout:
             result = None  # it timed out under a shorter limit than this run's: simulate it again
         if result is not None and (result.ok or not retry_failed):
-            record(
-                Scored(task.name, key, result.status, result.reason, result, True, entry_path(cache_dir, key))
-            )
+            path = entry_path(cache_dir, key)
+            given[key] = Scored(task.name, key, result.status, result.reason, result, True, path)
         elif simulate_missing:
             todo[key] = task
         else:
-            record(Scored(task.name, key, "missing", "not in the SPH cache", None, False, None))
+            given[key] = Scored(task.name, key, "missing", "not in the SPH cache", None, False, None)
     if on_plan is not None:
-        on_plan(len(done), len(todo))
+        on_plan(len(given), len(todo))
+    for scored in given.values():
+        record(scored)
     if todo:
         cache_dir.mkdir(parents=True, exist_ok=True)
         _remove_abandoned_scratch(cache_dir)

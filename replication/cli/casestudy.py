@@ -74,7 +74,8 @@ examples:
 Every generation is checkpointed (JSON) in the run directory, printed at the start; after a
 crash or Ctrl-C (exit status 130), --resume with the same --run-dir continues where the run
 stopped, with the settings recorded in the run directory, and ends exactly as an
-uninterrupted run would. Settings given together with --resume must match the recorded ones.
+uninterrupted run would. Settings given together with --resume must match the recorded ones
+(except --sph-timeout: a longer limit simulates again what timed out under the shorter).
 
 The report goes to {DEFAULT_DIR}/ only for the paper's settings ({QUICK_DIR}/ with --quick); a run
 with other settings, or with --rescore sph or --solver sph, reports into its run directory
@@ -314,7 +315,7 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
                 def tick(state: Any) -> None:
                     bar.update(1, run=state.run, best=f"{state.history[-1]['best_so_far']:.3f} N")
 
-                rescored = RescoreProgress()
+                rescored = RescoreProgress(workers=_workers(args))
                 results = run_casestudy(
                     config, run_dir=plan.run_dir, pool_factory=pool, resume=plan.resume, on_generation=tick,
                     command=args.invocation, quick=plan.quick, timing_repeats=20 if plan.quick else 100,

@@ -158,12 +158,14 @@ class RescoreProgress:
     """The progress of ``--rescore sph`` on stderr, with the cost still ahead.
 
     Once the cache is read (:meth:`plan`), one line says how many distinct surfaces are to be
-    simulated; then one line per re-scored surface, and after each simulation the time left
-    at the rate measured so far (simulations finished over the wall time since the plan: it
-    counts the simulations running at once).
+    simulated; then one line per re-scored surface, and after each simulation the time left.
+    The time left is the wall time since the plan per simulation finished, times those not
+    finished; until ``workers`` simulations (those started together) have finished, the
+    ones still running are taken to end now and the rest to run ``workers`` at a time.
     """
 
-    def __init__(self, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(self, workers: int = 1, clock: Callable[[], float] = time.monotonic) -> None:
+        self.workers = max(1, int(workers))
         self.clock = clock
         self.started: float | None = None
         self.to_simulate = 0
@@ -183,11 +185,19 @@ class RescoreProgress:
             source = "cache"
         else:
             self.simulated += 1
-            source = f"simulated in {scored.result.wall_seconds:.1f} s" if scored.result is not None else ""
+            source = ""
+            if scored.result is not None:  # (a failed run did not simulate what it was asked)
+                verb = "simulated in" if scored.ok else "ended after"
+                source = f"{verb} {scored.result.wall_seconds:.1f} s"
             if self.started is not None and self.to_simulate:
                 left = self.to_simulate - self.simulated
-                rate = (self.clock() - self.started) / self.simulated
-                ahead = f"about {_span(left * rate)} left" if left > 0 else "the last"
+                elapsed = self.clock() - self.started
+                at_once = min(self.workers, self.to_simulate)
+                if self.simulated < at_once:  # the first of a batch started together
+                    seconds = (self.to_simulate - at_once) * elapsed / at_once
+                else:
+                    seconds = left * elapsed / self.simulated
+                ahead = f"about {_span(seconds)} left" if left > 0 else "the last"
                 source = "; ".join(filter(None, (source, f"{self.simulated}/{self.to_simulate}, {ahead}")))
         print(f"SPH {scored.name}: {what}" + (f" ({source})" if source else ""), file=sys.stderr)
 
@@ -198,9 +208,13 @@ def rescore_summary(results: Any) -> list[str]:
     if frame is None:
         return []
     ok = frame[frame["status"] == "ok"].sort_values("sph_N", ascending=False, kind="stable")
-    failed = int((frame["status"] != "ok").sum())
-    cached = int(frame["cached"].sum())
-    lines = [f"SPH re-scoring: {len(frame)} surfaces ({cached} from the cache, {failed} failed)"]
+    distinct = frame.drop_duplicates("key")  # a surface listed twice was simulated once
+    failed = int((distinct["status"] != "ok").sum())
+    cached = int(distinct["cached"].sum())
+    lines = [
+        f"SPH re-scoring: {len(frame)} surfaces, {len(distinct)} distinct ({cached} from the cache, "
+        f"{failed} failed)"
+    ]
     if len(ok):
         best = ok.iloc[0]
         lines.append(
@@ -213,24 +227,30 @@ def rescore_summary(results: Any) -> list[str]:
 
 
 def check_rescored(results: Any, report: Any) -> None:
-    """Fail the command (after its report and data are written) when ``--rescore sph`` scored
-    no surface: an exit status of 0 told a script that SPH had judged the GA's winners.
+    """Fail the command (after its report and data are written) when ``--rescore sph`` judged
+    none of the GA's winners: an exit status of 0 told a script that SPH had judged them,
+    also when every simulation failed or only the reference shapes' succeeded.
 
     Raises
     ------
     SimulationError
-        Every re-scoring simulation failed; the message counts them by status.
+        No GA surface has an SPH score; the message counts their distinct simulations by
+        status.
     """
     frame = results.rescore
-    if frame is None or len(frame) == 0 or bool((frame["status"] == "ok").any()):
+    if frame is None:
+        return
+    ga = frame[frame["kind"] == "GA"]
+    if ga.empty or bool((ga["status"] == "ok").any()):
         return
     from replication.errors import SimulationError
 
-    counts = frame["status"].value_counts(sort=False)
+    counts = ga.drop_duplicates("key")["status"].value_counts(sort=False)
     how = ", ".join(f"{count} {status}" for status, count in counts.items())
+    total = int(counts.sum())
     raise SimulationError(
-        f"every SPH re-scoring simulation failed ({how}): no surface was judged by SPH; {report} "
-        "gives each one's reason"
+        f"no GA surface was judged by SPH: {'the' if total == 1 else 'every'} simulation of the GA's "
+        f"{len(ga)} surface(s) failed ({how}); {report} gives each one's reason"
     )
 
 
@@ -373,8 +393,11 @@ def restore_rescore(args: argparse.Namespace, run_dir: Any) -> None:
     A plain ``--resume`` of a run started with ``--rescore sph`` dropped the re-scoring and,
     its settings then looking like the paper's or the quick ones, wrote its report over
     another run's (a new-user audit); ``--resume --top 3`` was accepted though the run had 2.
-    Options given with ``--resume`` must match the recorded ones, as the GA's settings must.
-    A run recorded without ``--rescore`` may be re-scored on resume.
+    Options given with ``--resume`` must match the recorded ones, as the GA's settings must,
+    except ``--sph-timeout``: a limit says when to give up, not what is simulated, and a
+    longer one simulates again what timed out under the shorter (a run whose limit was too
+    short could not be continued). A run recorded without ``--rescore`` may be re-scored on
+    resume.
 
     Raises
     ------
@@ -395,7 +418,7 @@ def restore_rescore(args: argparse.Namespace, run_dir: Any) -> None:
             raise ValueError("not a --rescore record")
     except (OSError, ValueError) as exc:
         raise InputError(f"{path}: not a readable record of the run's --rescore options ({exc})") from None
-    given = _rescore_options(args)
+    given = {k: v for k, v in _rescore_options(args).items() if k != "sph_timeout"}  # (see below)
     differ = [
         f"--{name.replace('_', '-')} {value:g} (the run has {recorded.get(name, 'its default')})"
         if isinstance(value, float)
@@ -413,5 +436,5 @@ def restore_rescore(args: argparse.Namespace, run_dir: Any) -> None:
             "them to continue it with its recorded ones, or start a new run directory"
         )
     for name, value in recorded.items():
-        if name in ("rescore", *SPH_OPTIONS):
+        if name in ("rescore", *SPH_OPTIONS) and not (name == "sph_timeout" and args.sph_timeout is not None):
             setattr(args, name, value)  # (a default recorded as given: the same value)

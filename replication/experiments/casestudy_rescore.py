@@ -74,7 +74,8 @@ def rescore_cost(
     rows = [
         ("thin-sheet evaluation", 1e3 * thin_sheet_seconds, "ms", "median (ADT + jet model)"),
         ("SPH simulation", per_sim, "s", f"median wall time over {len(ok)} simulations "
-         f"(range {spread[0]:.3g}-{spread[1]:.3g} s), one core each"),
+         f"(range {spread[0]:.3g}-{spread[1]:.3g} s), one core each" if len(ok)
+         else "no simulation succeeded: no time to project from"),
         ("SPH / thin-sheet", per_sim / thin_sheet_seconds if thin_sheet_seconds > 0 else math.nan, "x", ""),
         ("simulations run", run_now, "", f"{workers} at once"),
         ("simulations read from the cache", cached, "", ""),
