@@ -87,8 +87,9 @@ by SPH (the fitness of record: the thin-sheet model ranks cup-like surfaces unli
 same executor, and the report ranks them by SPH with a cost table. Before the first simulation
 it says how many are to be simulated (the rest come from the cache), and after each one the
 time left at the rate measured so far. Every simulation is cached by content (--cache-dir):
-after Ctrl-C, the resume command reuses every finished simulation. A re-scoring whose every
-simulation failed exits with status 1, after its report.
+after Ctrl-C, the resume command reuses every finished simulation. A re-scoring that judged
+none of the GA's surfaces (every simulation of them failed) exits with status 1, after its
+report.
 """
 
 SETTINGS = ("runs", "generations", "population", "seed")
