@@ -121,3 +121,41 @@ def test_another_users_lock_file_is_opened_without_creating_it(tmp_path, monkeyp
         assert os.fstat(fd).st_ino == path.stat().st_ino
     finally:
         os.close(fd)
+
+
+def test_the_lock_file_is_removed_when_the_command_ends_and_is_readable_by_all(tmp_path):
+    # were: one file left in /tmp per directory ever written (thousands), and a file of mode
+    # 0600 under a umask of 077, which another user's command could not open: unguarded
+    out = tmp_path / "r"
+    path = locks._lock_file(str(out.resolve()))
+    old = os.umask(0o077)
+    try:
+        with locks.held_until_the_command_ends():
+            locks.hold_reports_dir(out)
+            assert path.stat().st_mode & 0o777 == 0o644
+    finally:
+        os.umask(old)
+    assert not path.exists()
+
+
+def test_a_lock_file_removed_before_its_lock_is_granted_is_not_the_lock(tmp_path, monkeypatch):
+    # a holder removes its file on release: a file opened just before then locks nothing, and
+    # two commands could each hold "the" lock, one on the removed file and one on its successor
+    path = tmp_path / "x.lock"
+    real = locks._open_lock
+    opened = []
+
+    def released_meanwhile(p):
+        fd = real(p)
+        if not opened:
+            os.unlink(p)  # its holder released it between our open and our flock
+        opened.append(fd)
+        return fd
+
+    monkeypatch.setattr(locks, "_open_lock", released_meanwhile)
+    fd = locks._locked(path)
+    try:
+        assert len(opened) == 2 and fd == opened[1]
+        assert os.fstat(fd).st_ino == path.stat().st_ino  # the file the path names
+    finally:
+        os.close(fd)

@@ -9,10 +9,10 @@ over seed 2's data, both with exit 0. Each data set is published whole (a lock o
 directory's resolved path, in ``/tmp`` (no file among the reports, and the directory need
 not exist yet), for as long as the command runs (:func:`held_until_the_command_ends`); a
 second command is refused at once. The system releases the lock when the process ends,
-however it ends. The place is fixed, not ``$TMPDIR``: two commands run with different
-temporary directories must still find each other's lock (``tempfile.gettempdir()`` only
-where there is no writable ``/tmp``). Where ``fcntl`` is missing, or no lock file can be
-opened, the directory is not guarded, as before.
+however it ends; a command that ends normally also removes the file. The place is fixed,
+not ``$TMPDIR``: two commands run with different temporary directories must still find each
+other's lock (``tempfile.gettempdir()`` only where there is no writable ``/tmp``). Where
+``fcntl`` is missing, or no lock file can be opened, the directory is not guarded, as before.
 """
 
 from __future__ import annotations
@@ -63,12 +63,55 @@ def _lock_file(key: str) -> Path:
 
 
 def _open_lock(path: Path) -> int:
-    """A descriptor of the lock file, made if missing. Another user's file in the sticky
-    ``/tmp`` is opened without ``O_CREAT``, which ``fs.protected_regular`` would refuse."""
+    """A descriptor of the lock file, made if missing, readable by every user whatever the
+    umask (a file of mode 0600 left another user's command unguarded: it could not open it).
+    Another user's file in the sticky ``/tmp`` is opened without ``O_CREAT``, which
+    ``fs.protected_regular`` would refuse."""
     try:
-        return os.open(path, os.O_RDONLY | os.O_CREAT, 0o644)
+        fd = os.open(path, os.O_RDONLY | os.O_CREAT, 0o644)
     except PermissionError:
         return os.open(path, os.O_RDONLY)
+    with contextlib.suppress(OSError):  # (another user's file: not ours to change)
+        os.fchmod(fd, 0o644)
+    return fd
+
+
+def _locked(path: Path) -> int | None:
+    """A descriptor holding the exclusive lock of ``path``; None where locks cannot be had.
+
+    A holder removes the file when it releases it (:func:`hold_reports_dir`), so a file opened
+    just before may be gone by the time its lock is granted: the lock is kept only while the
+    path still names the file locked, else taken again on the path's new file.
+
+    Raises
+    ------
+    BlockingIOError
+        Another process holds it.
+    """
+    import fcntl
+
+    for _ in range(8):
+        try:
+            fd = _open_lock(path)
+        except OSError:  # pragma: no cover - an unreadable lock file of another user's
+            return None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(fd)
+            raise
+        except OSError:  # pragma: no cover - a file system without locks
+            os.close(fd)
+            return None
+        try:
+            named = os.stat(path)
+        except FileNotFoundError:
+            named = None
+        held = os.fstat(fd)
+        if named is not None and (named.st_dev, named.st_ino) == (held.st_dev, held.st_ino):
+            return fd
+        os.close(fd)  # the file was removed under us: lock the one the path names now
+    return None  # pragma: no cover - removed eight times in a row
 
 
 def hold_reports_dir(out: str | os.PathLike[str], what: str = "--output-dir") -> None:
@@ -85,23 +128,18 @@ def hold_reports_dir(out: str | os.PathLike[str], what: str = "--output-dir") ->
     if stack is None or key in _HELD:
         return
     try:
-        import fcntl
+        import fcntl  # noqa: F401 - only to know that locks exist here
     except ImportError:  # pragma: no cover - not on POSIX
         return
+    path = _lock_file(key)
     try:
-        fd = _open_lock(_lock_file(key))
-    except OSError:  # pragma: no cover - an unreadable lock file of another user's
-        return
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        fd = _locked(path)
     except BlockingIOError:
-        os.close(fd)
         raise OutputError(
             f"{what} {out} is in use by another command writing its reports there; wait for it to end, "
             "or name another --output-dir"
         ) from None
-    except OSError:  # pragma: no cover - a file system without locks
-        os.close(fd)
+    if fd is None:  # pragma: no cover - no lock to be had here
         return
     _HELD[key] = fd
     register_lock(fd)
@@ -109,6 +147,8 @@ def hold_reports_dir(out: str | os.PathLike[str], what: str = "--output-dir") ->
     def release() -> None:
         if _HELD.pop(key, None) is not None:
             unregister_lock(fd)
+            with contextlib.suppress(OSError):  # (before the unlock: no file is left in /tmp per
+                os.unlink(path)  # directory ever written; another user's file stays)
             with contextlib.suppress(OSError):
                 os.close(fd)
 
