@@ -49,7 +49,8 @@ are in mm.
 
 With --solver sph the half jet is simulated as the whole jet on the surface joined to its
 mirror image in y = 0 (the engine has no symmetry plane), and the forces are halved: the y
-force of the half surface alone is not simulated, and --json gives force_N's y as null.
+force of the half surface alone is not simulated, and --json gives force_N's y as null (the
+simulation's own mean_force and force series keep the mirrored pair's halved y, about 0).
 """  # noqa: E501 - a command to copy whole
 
 

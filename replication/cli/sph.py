@@ -256,6 +256,8 @@ def force_sph(
         f"({report['over_measured_flux']:.3f} x measured mass flux x V): mean over {a:.3g}-{b:.3g} ms, "
         f"std {result.std_axial:.2g} N"
     )
+    fx, fy, fz = (v if v is None else float(v) + 0.0 for v in report["force_N"])  # + 0.0: no "-0"
+    print(f"force ({fx:.4g}, {'y not simulated' if fy is None else f'{fy:.4g}'}, {fz:.4g}) N")
     print(
         f"first-impact peak {result.peak_axial:.4g} N (mean over {1e3 * settings.peak_window:g} ms from "
         f"{1e3 * result.peak_time:.3g} ms); largest single-step force {result.max_step_axial:.4g} N"
