@@ -131,3 +131,19 @@ def test_the_note_on_cached_wall_times_says_how_many_came_from_the_cache():
         " 3 of the 14 simulations were read from the SPH cache: their wall times are those of the runs"
     )
     assert "where it held them" in _cache_note({"sph_cache": "c"}, 14)  # saved before the count
+
+
+def test_the_cost_section_names_the_machine_from_the_provenance_and_the_cached_share():
+    # was: "measured on a shared 2-core machine while other work ran", whatever ran it
+    from replication.report.sph import _cost_context
+
+    prov = {"cpu": "AMD EPYC", "cores": 2}
+    assert _cost_context(prov, 14) == (
+        "measured on AMD EPYC, 2 cores, which may have run other work: indicative times, not benchmarks"
+    )
+    assert _cost_context({**prov, "sph_cache": "c", "sph_cache_hits": 0}, 14) == _cost_context(prov, 14)
+    assert _cost_context({**prov, "sph_cache": "c", "sph_cache_hits": 3}, 14).endswith(
+        "; 3 of the 14 simulations were read from the SPH cache, with the times (and the number at once) "
+        "of the runs that made them"
+    )
+    assert "have the times of the runs that made them" in _cost_context({**prov, "sph_cache": "c"}, 14)

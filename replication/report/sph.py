@@ -323,7 +323,7 @@ the paper's values and the flat plate takes more than the bucket, as in the pape
 ## Cost of a simulation
 
 Wall time of one simulation of {duration:g} ms (median over the shapes; one engine thread; simulations
-{beside}; measured on a shared 2-core machine while other work ran, so these times are noisy):
+{beside}; {_cost_context(prov, len(runs))}):
 
 {
         table(
@@ -370,3 +370,19 @@ def _cache_note(prov: dict[str, Any], simulations: int) -> str:
         f" {hits} of the {simulations} simulations were read from the SPH cache: their wall times are "
         "those of the runs that made the entries."
     )
+
+
+def _cost_context(prov: dict[str, Any], simulations: int) -> str:
+    """Where the wall times were measured, from the provenance (the page said "a shared 2-core
+    machine while other work ran" whatever machine ran it), and which came from the cache."""
+    machine = f"{prov.get('cpu') or 'an unnamed CPU'}, {prov.get('cores', '?')} cores"
+    text = f"measured on {machine}, which may have run other work: indicative times, not benchmarks"
+    hits = prov.get("sph_cache_hits")
+    if prov.get("sph_cache") and hits is None:
+        text += "; simulations read from the SPH cache have the times of the runs that made them"
+    elif hits:
+        text += (
+            f"; {hits} of the {simulations} simulations were read from the SPH cache, with the times "
+            "(and the number at once) of the runs that made them"
+        )
+    return text
