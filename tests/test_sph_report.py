@@ -125,7 +125,7 @@ def test_the_note_on_cached_wall_times_says_how_many_came_from_the_cache():
 
     assert _cache_note({}, 14) == ""  # no cache
     assert _cache_note({"sph_cache": "c", "sph_cache_hits": 0}, 14) == (
-        " Every simulation was run for this study (none was in the SPH cache)."
+        " Every simulation was run for this study (the SPH cache gave none)."
     )
     assert _cache_note({"sph_cache": "c", "sph_cache_hits": 3}, 14).startswith(
         " 3 of the 14 simulations were read from the SPH cache: their wall times are those of the runs"

@@ -1,5 +1,6 @@
 """The SPH study's simulations run several at once, with results independent of how many."""
 
+import dataclasses
 import os
 import subprocess
 import sys
@@ -30,6 +31,19 @@ def test_a_study_on_two_worker_processes_equals_one_run_one_after_another():
     for name in ("runs", "series", "shapes", "hypotheses"):
         pd.testing.assert_frame_equal(getattr(serial, name), getattr(parallel, name))
     assert serial.provenance["simulations_at_once"] == 1 and parallel.provenance["simulations_at_once"] == 2
+
+
+@pytest.mark.parametrize(
+    ("changes", "match"),
+    [
+        ({"radii": (1e-3, 1e-3)}, r"study radii must be distinct, got \(0.001, 0.001\)"),
+        ({"wcsph": ((1e-3, 10.0), (1e-3, 10.0))}, "study wcsph runs must be distinct"),
+    ],
+)
+def test_a_study_run_listed_twice_is_refused(changes, match):
+    # was: simulated once, the cache giving the second, yet counted as run twice on the page
+    with pytest.raises(InputError, match=match):
+        dataclasses.replace(CONFIG, **changes)
 
 
 @pytest.mark.parametrize("bad", [0, -1, 1.5, True])

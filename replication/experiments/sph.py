@@ -77,6 +77,10 @@ class SPHStudyConfig:
             raise InputError(f"study radii must be positive (m) and at most 5 mm, got {self.radii}")
         if any(not (0 < r <= 5e-3 and c > 1) for r, c in self.wcsph):
             raise InputError(f"wcsph runs must be (radius <= 5 mm, c / V > 1) pairs, got {self.wcsph}")
+        # a run listed twice is one simulation (the cache gives the second), counted as run twice
+        for name, runs in (("radii", self.radii), ("wcsph runs", self.wcsph)):
+            if len(set(runs)) != len(runs):
+                raise InputError(f"study {name} must be distinct, got {runs}")
         if self.jet.full_jet:
             raise InputError("the study examines the paper's half jet: use JetConfig(full_jet=False)")
 

@@ -365,7 +365,7 @@ def _cache_note(prov: dict[str, Any], simulations: int) -> str:
             "the run that made the entry."
         )
     if hits == 0:
-        return " Every simulation was run for this study (none was in the SPH cache)."
+        return " Every simulation was run for this study (the SPH cache gave none)."
     return (
         f" {hits} of the {simulations} simulations were read from the SPH cache: their wall times are "
         "those of the runs that made the entries."
