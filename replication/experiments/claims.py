@@ -30,8 +30,9 @@ boundary.
     the ratio by more than x1.44 (1.2 squared). File sizes are exact and keep the plain rule.
 **Several n, several families** (:func:`combine`)
     holds if it holds at every n, does not hold if it does not hold at every n, partly
-    holds otherwise; verdicts that cannot be compared or decided are left out (if none is
-    left, the claim cannot be decided).
+    holds otherwise - also when it holds at some n and cannot be decided at the others;
+    otherwise verdicts that cannot be compared or decided are left out (if none is left, the
+    claim cannot be decided).
 **Storage across representation families** (:func:`storage_overall`)
     the claim is decided per family (:mod:`.storage`) and kind of coordinates; the headline
     verdict is that of the families at equal precision (fixed digits, binary, information
@@ -45,6 +46,10 @@ boundary.
     of more than ``TREND_MARGIN`` (5 %); *does not hold* when it shows a change of more than
     5 % in the opposite direction; *cannot be decided* otherwise - when the interval
     straddles zero, or the change is within the 5 % margin that timing noise can produce.
+    A trend of timings is decided on its interval widened for the drift between runs, as a
+    timing ratio is: the level at the largest n over that at the smallest, ``1 + change``,
+    divided and multiplied by ``TIMING_DRIFT`` (an interleaved run's +9 % [+4.4, +13.3]
+    "could not be decided" and a second one's [+5.5, +12.4] "held").
     The paper's claims are monotone ("grows with the increase in the number of points"), so a
     fitted trend that holds only *partly holds* when the median moves against it from one n
     to the next by more than the same margin of the median level (the fit alone called the
@@ -152,15 +157,18 @@ def factor_verdict(
 def combine(verdicts: list[str]) -> str:
     """Combine verdicts over n (or families): all hold -> holds; all fail -> does not hold.
 
-    Verdicts that could not be compared or decided are left out; if none is left: cannot
-    be compared (when nothing could be compared) or cannot be decided.
+    A claim holds only where it holds at every n: one that holds at some n and cannot be
+    decided at the others partly holds (leaving those out let a single decided n say "holds",
+    and the verdict then turned on which n the timing noise decided). Otherwise verdicts that
+    could not be compared or decided are left out; if none is left: cannot be compared (when
+    nothing could be compared) or cannot be decided.
     """
     decided = [v for v in verdicts if v not in UNDECIDED]
     if not decided:
         nothing = all(v == "cannot be compared" for v in verdicts)
         return "cannot be compared" if nothing else "cannot be decided"
     if all(v == "holds" for v in decided):
-        return "holds"
+        return "holds" if all(v == "holds" or v == "cannot be compared" for v in verdicts) else "partly holds"
     if all(v == "does not hold" for v in decided):
         return "does not hold"
     return "partly holds"
@@ -195,6 +203,7 @@ class Trend:
     points: int
     against: tuple[tuple[float, float], ...] = ()
     direction: int = 1
+    drift: float = 1.0  # the factor the interval of the level ratio was widened by (timings)
 
     def describe(self, n_range: tuple[int, int]) -> str:
         if not np.isfinite(self.change):
@@ -204,6 +213,13 @@ class Trend:
             f"[{100 * self.change_low:+.1f}, {100 * self.change_high:+.1f}] of the median level "
             f"(Theil-Sen slope, 95 % interval, {self.points} clouds)"
         )
+        if self.drift != 1.0:
+            lo = (1 + self.change_low) / self.drift - 1
+            hi = (1 + self.change_high) * self.drift - 1
+            text += (
+                f", widened x{self.drift:g} for the drift of timings between runs to "
+                f"[{100 * lo:+.1f}, {100 * hi:+.1f}] %"
+            )
         if self.against:
             moves = "falls" if self.direction > 0 else "rises"
             steps = ", ".join(f"{a:g} to {b:g}" for a, b in self.against)
@@ -236,9 +252,15 @@ def theil_sen(x: np.ndarray, y: np.ndarray, confidence: float = 0.95) -> tuple[f
 
 
 def trend_verdict(
-    n: np.ndarray, values: np.ndarray, *, direction: int, margin: float = TREND_MARGIN
+    n: np.ndarray, values: np.ndarray, *, direction: int, margin: float = TREND_MARGIN, drift: float = 1.0
 ) -> Trend:
-    """Verdict on "the values grow (``direction=+1``) / shrink (``-1``) with n" (module notes)."""
+    """Verdict on "the values grow (``direction=+1``) / shrink (``-1``) with n" (module notes).
+
+    ``drift`` (:data:`~replication.experiments.timing.TIMING_DRIFT` for timings) widens the
+    interval of the level at the largest n over the level at the smallest, ``1 + change``, by
+    that factor each way before the verdict, as a timing ratio's is: the timings of one run
+    drift against another's by more than their interval within the run says.
+    """
     if direction not in (1, -1):
         raise ValueError(f"direction must be +1 or -1, got {direction!r}")
     n = np.asarray(n, dtype=float)
@@ -252,7 +274,8 @@ def trend_verdict(
     slope, low, high = theil_sen(n, values)
     span = float(n.max() - n.min()) / scale
     change, c_lo, c_hi = slope * span, low * span, high * span
-    toward = sorted((direction * c_lo, direction * c_hi))  # the change in the claimed direction
+    d_lo, d_hi = ((1 + c_lo) / drift - 1, (1 + c_hi) * drift - 1) if drift != 1.0 else (c_lo, c_hi)
+    toward = sorted((direction * d_lo, direction * d_hi))  # the change in the claimed direction
     against = _steps_against(n, values, direction, margin * scale)
     if toward[0] > margin:
         verdict = "partly holds" if against else "holds"
@@ -261,7 +284,7 @@ def trend_verdict(
     else:
         verdict = "cannot be decided"
     slopes = (float(slope), float(low), float(high))
-    return Trend(verdict, *slopes, change, c_lo, c_hi, int(values.size), against, direction)
+    return Trend(verdict, *slopes, change, c_lo, c_hi, int(values.size), against, direction, drift)
 
 
 def _steps_against(
