@@ -307,13 +307,29 @@ def test_compare_human(capsys, cloud_file):
     assert "rounding noise" not in out  # a random cloud: real deviations
 
 
+def test_compare_text_states_the_papers_verdict_as_the_json_does(capsys, tmp_path):
+    # was: each test's line said "-> paper's verdict: ..." (one similar, one different), and the
+    # combined verdict of the JSON was nowhere in the text; nor was the sign of the difference
+    from replication import random_cloud
+
+    for seed in range(6):
+        save_cloud(random_cloud(60, rng=np.random.default_rng(seed)), tmp_path / "c.csv")
+        code, text, _ = run(capsys, "compare", str(tmp_path / "c.csv"))
+        code_json, out, _ = run(capsys, "compare", str(tmp_path / "c.csv"), "--json")
+        report = json.loads(out)
+        assert code == code_json == 0 and report["differences"] == "ADT depth - NURBS depth at each pair"
+        verdicts = [line.split()[2] for line in text.splitlines() if line.startswith("  paper's verdict")]
+        assert verdicts == [p["statistics"]["paper_verdict"] for p in report["pairings"].values()]
+        assert text.count("(ADT - NURBS; 95% CI") == 2 and "-> paper's verdict" not in text
+
+
 def test_compare_says_when_the_tests_compare_rounding_noise(capsys, tmp_path):
     """A plane on a lattice: ADT and NURBS agree to 7e-16, yet the t-test rejected (p = 0.00025);
     rounding is no evidence of a difference, and the output says so, in words and in the JSON."""
     g = np.stack(np.meshgrid(np.arange(10.0), np.arange(10.0), indexing="ij"), -1).reshape(-1, 2)
     save_cloud(np.column_stack([g, 0.1 * (g[:, 0] + g[:, 1])]), tmp_path / "plane.csv")
     code, out, _ = run(capsys, "compare", str(tmp_path / "plane.csv"))
-    assert code == 0 and "paper's verdict: different" not in out
+    assert code == 0 and "paper's verdict    similar (neither test rejects;" in out
     assert "float64 rounding of depths of range 1.8 and size 1.8 (up to 1.8e-12): the surfaces agree" in out
     code, out, _ = run(capsys, "compare", str(tmp_path / "plane.csv"), "--json")
     r = json.loads(out)

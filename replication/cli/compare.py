@@ -44,14 +44,24 @@ def _format_stats(name: str, pairs: Any, st: Any) -> list[str]:
             "the surfaces agree, and both tests take rounding for no difference (on the raw noise the "
             "paper's t-test rejects or not with the units)"
         ]
+
+    def reading(similar: bool) -> str:
+        return f"{'fails to reject' if similar else 'rejects'} at alpha = {st.alpha:g}"
+
+    why = (
+        "neither test rejects" if st.paper_verdict == "similar"
+        else "both tests reject" if not (st.t_test.similar or st.wilcoxon.similar)
+        else f"the {'t-test' if not st.t_test.similar else 'Wilcoxon test'} rejects"
+    )  # fmt: skip
     return [
         head,
-        f"  paired t-test      t = {st.t_test.statistic:.4g}, p = {st.t_test.p_value:.4g}"
-        f"  -> paper's verdict: {'similar' if st.t_test.similar else 'different'}",
-        f"  Wilcoxon test      W = {st.wilcoxon.statistic:.4g}, p = {st.wilcoxon.p_value:.4g}"
-        f"  -> paper's verdict: {'similar' if st.wilcoxon.similar else 'different'}",
+        f"  paired t-test      t = {st.t_test.statistic:.4g}, p = {st.t_test.p_value:.4g}  -> "
+        f"{reading(st.t_test.similar)}",
+        f"  Wilcoxon test      W = {st.wilcoxon.statistic:.4g}, p = {st.wilcoxon.p_value:.4g}  -> "
+        f"{reading(st.wilcoxon.similar)}",
+        f"  paper's verdict    {st.paper_verdict} ({why}; 'similar' needs both to fail to reject)",
         *rounding,
-        f"  mean difference    {st.mean_difference:.4g} (95% CI {lo:.4g} to {hi:.4g}), "
+        f"  mean difference    {st.mean_difference:.4g} (ADT - NURBS; 95% CI {lo:.4g} to {hi:.4g}), "
         f"Cohen's d_z {st.cohens_dz:.3g}",
         f"  deviation          RMS {st.rms:.4g} ({st.rms_percent:.1f}% of depth range), "
         f"max {st.max_abs:.4g} ({st.max_abs_percent:.1f}%)",
@@ -101,6 +111,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         "nurbs": {"degree": args.degree, "net": [m_u, m_v], "net_rule": result.nurbs.net.rule},
         "alpha": args.alpha,
         "margin_fraction": args.margin,
+        "differences": "ADT depth - NURBS depth at each pair",
         "pairings": pairings,
         **meta,
     }
