@@ -535,6 +535,17 @@ def test_bad_npy_shapes(tmp_path):
         load_cloud(tmp_path / "b.npy")
 
 
+@pytest.mark.parametrize("text", [["1_000"], [" 2 "], ["0x5"]])
+@pytest.mark.parametrize("kind", ["U", "S"])
+def test_a_npy_of_text_is_refused_not_parsed_by_numpy(tmp_path, text, kind):
+    # was: numpy's own parsing, looser than the text reader's: '1_000' read as 1000 from a .npy
+    # and refused from the .csv; '0x5' gave numpy's "could not convert string to float"
+    rows = np.array([["0", "0", "0"], ["1", "0", "0"], ["0", "1", "1"], ["1", "1", text[0]]], dtype=kind)
+    np.save(tmp_path / "t.npy", rows)
+    with pytest.raises(CloudFileError, match=rf"t.npy: holds text \(dtype [<|]?{kind}\d+\), not numbers"):
+        load_cloud(tmp_path / "t.npy")
+
+
 def test_missing_cloud_file(tmp_path):
     with pytest.raises(CloudFileError, match="not found"):
         load_cloud(tmp_path / "nothing.csv")

@@ -145,9 +145,15 @@ def load_npy(path: Path) -> np.ndarray:
     Raises
     ------
     CloudFileError
-        Not a ``.npy`` file, truncated or damaged, an array of Python objects, or a structured
-        array that is not three real numeric fields over one dimension. The shape and values
+        Not a ``.npy`` file, truncated or damaged, an array of Python objects or of text, or a
+        structured array that is not three real numeric fields over one dimension. The shape and values
         of a plain array are checked by the caller (:func:`replication.surfaces.cloud.as_cloud`).
     """
     data = _read(path)
+    if data.dtype.kind in "US":  # numpy parses text by its own, looser rules: '1_000', ' 2 ', b'1e5'
+        raise CloudFileError(
+            f"{path}: holds text (dtype {data.dtype}), not numbers; save the coordinates as numbers "
+            "(np.save(file, a.astype(float))), or as a .csv, whose numbers are read by the rules of a "
+            "cloud file"
+        )
     return unstructured(path, data) if data.dtype.names is not None else data
