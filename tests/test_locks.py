@@ -111,14 +111,56 @@ def test_another_users_lock_file_is_opened_without_creating_it(tmp_path, monkeyp
     real = os.open
 
     def protected(name, flags, *mode):
-        if flags & os.O_CREAT:
+        if flags & os.O_CREAT and not flags & os.O_EXCL:  # (O_EXCL: the file exists, EEXIST)
             raise PermissionError(13, "Permission denied")
         return real(name, flags, *mode)
 
     monkeypatch.setattr(os, "open", protected)
+    path.chmod(0o600)
     fd = locks._open_lock(path)
     try:
         assert os.fstat(fd).st_ino == path.stat().st_ino
+        assert path.stat().st_mode & 0o777 == 0o600  # an existing file is never changed
+    finally:
+        os.close(fd)
+
+
+def test_a_link_planted_at_the_lock_s_name_is_not_followed(tmp_path):
+    # was: the lock file was opened through a symbolic link and made mode 0644, so a link to a
+    # private file planted at the (predictable) name in /tmp made that file world-readable
+    private = tmp_path / "private"
+    private.write_text("secret")
+    private.chmod(0o600)
+    out = tmp_path / "r"
+    path = locks._lock_file(str(out.resolve()))
+    path.symlink_to(private)
+    try:
+        with locks.held_until_the_command_ends():
+            locks.hold_reports_dir(out)  # not guarded (as where locks cannot be had), not followed
+            assert locks._HELD == {}
+        assert private.stat().st_mode & 0o777 == 0o600 and path.is_symlink()
+    finally:
+        path.unlink()
+
+
+def test_a_lock_file_released_between_the_two_opens_is_taken_again(tmp_path, monkeypatch):
+    # was: the open without O_CREAT found nothing (its holder had just released it), and the
+    # command ran unguarded
+    path = tmp_path / "x.lock"
+    path.touch()
+    real = os.open
+    calls = []
+
+    def released(name, flags, *mode):
+        calls.append(flags)
+        if len(calls) == 2:  # the open of the existing file: its holder removed it meanwhile
+            os.unlink(name)
+        return real(name, flags, *mode)
+
+    monkeypatch.setattr(os, "open", released)
+    fd = locks._locked(path)
+    try:
+        assert fd is not None and len(calls) == 3 and os.fstat(fd).st_ino == path.stat().st_ino
     finally:
         os.close(fd)
 

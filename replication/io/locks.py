@@ -62,18 +62,43 @@ def _lock_file(key: str) -> Path:
     return Path(LOCK_DIR if shared else tempfile.gettempdir()) / f"replication-reports-{digest}.lock"
 
 
+#: Not through a symbolic link: the lock's name in the shared /tmp is predictable.
+_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
+
+
 def _open_lock(path: Path) -> int:
-    """A descriptor of the lock file, made if missing, readable by every user whatever the
-    umask (a file of mode 0600 left another user's command unguarded: it could not open it).
-    Another user's file in the sticky ``/tmp`` is opened without ``O_CREAT``, which
-    ``fs.protected_regular`` would refuse."""
+    """A descriptor of the lock file, made if missing.
+
+    A file made here is made readable by every user whatever the umask (a file of mode 0600
+    left another user's command unguarded: it could not open it). A file that exists is only
+    opened, never through a symbolic link and never changed: its name is predictable, and a
+    link planted there must not lead this command to any other file. Opening it without
+    ``O_CREAT`` also suits ``fs.protected_regular``, which refuses that on another user's file.
+
+    Raises
+    ------
+    FileNotFoundError
+        The file was removed between the two opens (its holder released it): try again.
+    OSError
+        It cannot be opened (a symbolic link, another user's unreadable file).
+    """
     try:
-        fd = os.open(path, os.O_RDONLY | os.O_CREAT, 0o644)
-    except PermissionError:
-        return os.open(path, os.O_RDONLY)
-    with contextlib.suppress(OSError):  # (another user's file: not ours to change)
-        os.fchmod(fd, 0o644)
+        fd = os.open(path, os.O_RDONLY | os.O_CREAT | os.O_EXCL | _NOFOLLOW, 0o644)
+    except FileExistsError:
+        return os.open(path, os.O_RDONLY | _NOFOLLOW)
+    with contextlib.suppress(OSError):
+        os.fchmod(fd, 0o644)  # just made, by this process
     return fd
+
+
+def _names(path: Path, fd: int) -> bool:
+    """Whether ``path`` still names the file open as ``fd``."""
+    try:
+        named = os.stat(path, follow_symlinks=False)
+    except FileNotFoundError:
+        return False
+    held = os.fstat(fd)
+    return (named.st_dev, named.st_ino) == (held.st_dev, held.st_ino)
 
 
 def _locked(path: Path) -> int | None:
@@ -93,7 +118,9 @@ def _locked(path: Path) -> int | None:
     for _ in range(8):
         try:
             fd = _open_lock(path)
-        except OSError:  # pragma: no cover - an unreadable lock file of another user's
+        except FileNotFoundError:  # released between the open that found it and the next
+            continue
+        except OSError:  # a symbolic link, an unreadable lock file of another user's
             return None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -103,12 +130,7 @@ def _locked(path: Path) -> int | None:
         except OSError:  # pragma: no cover - a file system without locks
             os.close(fd)
             return None
-        try:
-            named = os.stat(path)
-        except FileNotFoundError:
-            named = None
-        held = os.fstat(fd)
-        if named is not None and (named.st_dev, named.st_ino) == (held.st_dev, held.st_ino):
+        if _names(path, fd):
             return fd
         os.close(fd)  # the file was removed under us: lock the one the path names now
     return None  # pragma: no cover - removed eight times in a row
@@ -148,7 +170,8 @@ def hold_reports_dir(out: str | os.PathLike[str], what: str = "--output-dir") ->
         if _HELD.pop(key, None) is not None:
             unregister_lock(fd)
             with contextlib.suppress(OSError):  # (before the unlock: no file is left in /tmp per
-                os.unlink(path)  # directory ever written; another user's file stays)
+                if _names(path, fd):  # directory ever written; another user's file stays)
+                    os.unlink(path)
             with contextlib.suppress(OSError):
                 os.close(fd)
 
