@@ -397,3 +397,12 @@ def test_a_timing_trend_is_decided_on_its_interval_widened_for_the_drift_between
         trend = trend_verdict(n, values, direction=+1, drift=TIMING_DRIFT)
         assert trend.verdict == drifted and trend.change == trend_verdict(n, values, direction=+1).change
         assert "widened x1.2 for the drift of timings between runs to [" in trend.describe((9, 200))
+        # a shrinking trend is widened the same way, and a fall of 2 levels stays ordered
+        falling = 1.0 - growth * (n - 9) / 191 + rng.normal(0, 0.01, n.size)
+        assert trend_verdict(n, falling, direction=-1, drift=TIMING_DRIFT).verdict == drifted
+    steep = trend_verdict(n, 10.0 - 9.9 * (n - 9) / 191, direction=-1, drift=TIMING_DRIFT)
+    low, high = (float(v) for v in steep.describe((9, 200)).split("to [")[1].split("]")[0].split(","))
+    assert steep.verdict == "holds" and low < high
+    for bad in (0.5, 0.0, float("nan")):
+        with pytest.raises(ValueError, match="drift must be a finite factor of at least 1"):
+            trend_verdict(n, falling, direction=-1, drift=bad)

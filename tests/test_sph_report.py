@@ -147,3 +147,6 @@ def test_the_cost_section_names_the_machine_from_the_provenance_and_the_cached_s
         "of the runs that made them"
     )
     assert "have the times of the runs that made them" in _cost_context({**prov, "sph_cache": "c"}, 14)
+    assert _cost_context({"cpu": None, "cores": None}, 14).startswith(
+        "measured on an unnamed CPU, an unknown number of cores,"
+    )

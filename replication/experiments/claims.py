@@ -29,10 +29,13 @@ boundary.
     across an edge. Two such verdicts can then contradict each other only if the load moves
     the ratio by more than x1.44 (1.2 squared). File sizes are exact and keep the plain rule.
 **Several n, several families** (:func:`combine`)
-    holds if it holds at every n, does not hold if it does not hold at every n, partly
-    holds otherwise - also when it holds at some n and cannot be decided at the others;
-    otherwise verdicts that cannot be compared or decided are left out (if none is left, the
-    claim cannot be decided).
+    holds if it holds at every n; does not hold if it does not hold at every n where it could
+    be decided; partly holds otherwise - also when it holds at some n and cannot be decided at
+    the others (otherwise verdicts that cannot be compared or decided are left out; if none is
+    left, the claim cannot be decided). The rule is asymmetric on purpose: a claim of the paper
+    is credited only where it is established at every n (leaving undecided n out let a single
+    n that the timing noise decided say "holds"), while a claim that no decided n supports
+    does not hold.
 **Storage across representation families** (:func:`storage_overall`)
     the claim is decided per family (:mod:`.storage`) and kind of coordinates; the headline
     verdict is that of the families at equal precision (fixed digits, binary, information
@@ -47,9 +50,10 @@ boundary.
     5 % in the opposite direction; *cannot be decided* otherwise - when the interval
     straddles zero, or the change is within the 5 % margin that timing noise can produce.
     A trend of timings is decided on its interval widened for the drift between runs, as a
-    timing ratio is: the level at the largest n over that at the smallest, ``1 + change``,
-    divided and multiplied by ``TIMING_DRIFT`` (an interleaved run's +9 % [+4.4, +13.3]
-    "could not be decided" and a second one's [+5.5, +12.4] "held").
+    timing ratio is: by ``TIMING_DRIFT - 1`` (20 %) of the median level each way, about what a
+    level drifting by x1.2 between the ends of the range of n moves the change by (an
+    interleaved run's +9 % [+4.4, +13.3] "could not be decided" and a second one's
+    [+5.5, +12.4] "held").
     The paper's claims are monotone ("grows with the increase in the number of points"), so a
     fitted trend that holds only *partly holds* when the median moves against it from one n
     to the next by more than the same margin of the median level (the fit alone called the
@@ -159,9 +163,10 @@ def combine(verdicts: list[str]) -> str:
 
     A claim holds only where it holds at every n: one that holds at some n and cannot be
     decided at the others partly holds (leaving those out let a single decided n say "holds",
-    and the verdict then turned on which n the timing noise decided). Otherwise verdicts that
-    could not be compared or decided are left out; if none is left: cannot be compared (when
-    nothing could be compared) or cannot be decided.
+    and the verdict then turned on which n the timing noise decided). A claim that does not
+    hold wherever it could be decided does not hold (no n supports it; see the module notes).
+    Otherwise verdicts that could not be compared or decided are left out; if none is left:
+    cannot be compared (when nothing could be compared) or cannot be decided.
     """
     decided = [v for v in verdicts if v not in UNDECIDED]
     if not decided:
@@ -214,8 +219,7 @@ class Trend:
             f"(Theil-Sen slope, 95 % interval, {self.points} clouds)"
         )
         if self.drift != 1.0:
-            lo = (1 + self.change_low) / self.drift - 1
-            hi = (1 + self.change_high) * self.drift - 1
+            lo, hi = self.change_low - (self.drift - 1), self.change_high + (self.drift - 1)
             text += (
                 f", widened x{self.drift:g} for the drift of timings between runs to "
                 f"[{100 * lo:+.1f}, {100 * hi:+.1f}] %"
@@ -257,12 +261,15 @@ def trend_verdict(
     """Verdict on "the values grow (``direction=+1``) / shrink (``-1``) with n" (module notes).
 
     ``drift`` (:data:`~replication.experiments.timing.TIMING_DRIFT` for timings) widens the
-    interval of the level at the largest n over the level at the smallest, ``1 + change``, by
-    that factor each way before the verdict, as a timing ratio's is: the timings of one run
-    drift against another's by more than their interval within the run says.
+    interval of the change by ``drift - 1`` of the median level each way before the verdict
+    (x1.2: 20 % of it): the timings of one run drift against another's by more than their
+    interval within the run says, and a level that drifts by x1.2 between the ends of the
+    range moves the change by about that much.
     """
     if direction not in (1, -1):
         raise ValueError(f"direction must be +1 or -1, got {direction!r}")
+    if not (math.isfinite(drift) and drift >= 1):
+        raise ValueError(f"drift must be a finite factor of at least 1, got {drift!r}")
     n = np.asarray(n, dtype=float)
     values = np.asarray(values, dtype=float)
     keep = np.isfinite(n) & np.isfinite(values)
@@ -274,7 +281,7 @@ def trend_verdict(
     slope, low, high = theil_sen(n, values)
     span = float(n.max() - n.min()) / scale
     change, c_lo, c_hi = slope * span, low * span, high * span
-    d_lo, d_hi = ((1 + c_lo) / drift - 1, (1 + c_hi) * drift - 1) if drift != 1.0 else (c_lo, c_hi)
+    d_lo, d_hi = c_lo - (drift - 1), c_hi + (drift - 1)
     toward = sorted((direction * d_lo, direction * d_hi))  # the change in the claimed direction
     against = _steps_against(n, values, direction, margin * scale)
     if toward[0] > margin:

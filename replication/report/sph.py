@@ -375,7 +375,10 @@ def _cache_note(prov: dict[str, Any], simulations: int) -> str:
 def _cost_context(prov: dict[str, Any], simulations: int) -> str:
     """Where the wall times were measured, from the provenance (the page said "a shared 2-core
     machine while other work ran" whatever machine ran it), and which came from the cache."""
-    machine = f"{prov.get('cpu') or 'an unnamed CPU'}, {prov.get('cores', '?')} cores"
+    cores = prov.get("cores")
+    machine = f"{prov.get('cpu') or 'an unnamed CPU'}, " + (
+        f"{cores} cores" if isinstance(cores, int) else "an unknown number of cores"
+    )
     text = f"measured on {machine}, which may have run other work: indicative times, not benchmarks"
     hits = prov.get("sph_cache_hits")
     if prov.get("sph_cache") and hits is None:
