@@ -387,6 +387,10 @@ def write_rescore_record(run_dir: Any, args: argparse.Namespace, rescore: Any) -
     atomic_write_text(Path(run_dir) / RESCORE_NAME, json.dumps(record, sort_keys=True) + "\n")
 
 
+#: The SPH option a resume may change: a limit says when to give up, not what is simulated.
+_FREE_ON_RESUME = ("sph_timeout",)
+
+
 def restore_rescore(args: argparse.Namespace, run_dir: Any) -> None:
     """On ``--resume``, take the run's recorded ``--rescore`` options.
 
@@ -418,7 +422,7 @@ def restore_rescore(args: argparse.Namespace, run_dir: Any) -> None:
             raise ValueError("not a --rescore record")
     except (OSError, ValueError) as exc:
         raise InputError(f"{path}: not a readable record of the run's --rescore options ({exc})") from None
-    given = {k: v for k, v in _rescore_options(args).items() if k != "sph_timeout"}  # (see below)
+    given = {k: v for k, v in _rescore_options(args).items() if k not in _FREE_ON_RESUME}
     differ = [
         f"--{name.replace('_', '-')} {value:g} (the run has {recorded.get(name, 'its default')})"
         if isinstance(value, float)
@@ -436,5 +440,6 @@ def restore_rescore(args: argparse.Namespace, run_dir: Any) -> None:
             "them to continue it with its recorded ones, or start a new run directory"
         )
     for name, value in recorded.items():
-        if name in ("rescore", *SPH_OPTIONS) and not (name == "sph_timeout" and args.sph_timeout is not None):
+        given_now = name in _FREE_ON_RESUME and getattr(args, name, None) is not None
+        if name in ("rescore", *SPH_OPTIONS) and not given_now:
             setattr(args, name, value)  # (a default recorded as given: the same value)

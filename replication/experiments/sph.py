@@ -189,13 +189,13 @@ def _cached_surface_force(
     )
 
 
-def _cache_hits(plan: Sequence[Run], config: SPHStudyConfig, cache_dir: Any) -> int:
+def _cache_hits(plan: Sequence[Run], surfaces: dict[str, Any], config: SPHStudyConfig, cache_dir: Any) -> int:
     """The study's simulations that the cache will give as they are (before any is run)."""
     from replication.casestudy.sph_batch import cache_key, read_entry, reusable
 
     hits = 0
     for run in plan:
-        surface = SHAPES[run.shape]()
+        surface = surfaces[run.shape]
         settings = run.settings(config.duration, config.jet.velocity)
         key = cache_key(surface.points, surface.triangles, config.jet, settings)
         hits += reusable(read_entry(cache_dir, key), config.timeout)
@@ -250,13 +250,14 @@ def run_sph_study(
         raise InputError(f"max_parallel must be a positive integer, got {max_parallel!r}")
     through_cache = score is None and cache_dir is not None
     plan = config.runs()
+    surfaces = {name: SHAPES[name]() for name in {run.shape for run in plan}}  # built once each
     velocity = config.jet.velocity
     hits = 0
     if through_cache:
         from replication.casestudy.sph_batch import prepare_cache
 
         prepare_cache(cache_dir)  # (the scratch a killed study left is removed)
-        hits = _cache_hits(plan, config, cache_dir)
+        hits = _cache_hits(plan, surfaces, config, cache_dir)
         score = functools.partial(_cached_surface_force, cache_dir=str(cache_dir))
     score = score or surface_sph_force
     pool = executor if executor is not None else SerialExecutor()
@@ -270,7 +271,7 @@ def run_sph_study(
 
     timed = functools.partial(score, timeout=config.timeout)
     tasks = [
-        (k, timed, (SHAPES[plan[k].shape](), config.jet, plan[k].settings(config.duration, velocity)))
+        (k, timed, (surfaces[plan[k].shape], config.jet, plan[k].settings(config.duration, velocity)))
         for k in sorted(range(len(plan)), key=lambda k: plan[k].radius)  # finest (longest) first
     ]
     run_bounded(pool, tasks, max_parallel, finished)
