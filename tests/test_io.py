@@ -1,6 +1,7 @@
 """File formats: compact legacy VTK, VTP, point-cloud files, atomic writes."""
 
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as hst
 from hypothesis.extra import numpy as hnp
 
-from replication.errors import CloudFileError, InputError, OutputError
+from replication.errors import CloudFileError, CloudFileWarning, InputError, OutputError
 from replication.io import atomic as atomic_module
 from replication.io import (
     atomic_write_text,
@@ -433,13 +434,72 @@ def test_a_header_naming_other_than_three_columns_is_refused(tmp_path, header):
         load_cloud(tmp_path / "c.csv")
 
 
-def test_quoted_numbers_are_a_malformed_data_line_not_a_header(tmp_path):
-    (tmp_path / "q.csv").write_text('"1e-05","2","3"\n')  # was: "the file has a header but no data lines"
-    with pytest.raises(CloudFileError, match=r"line 1, column 1: '\"1e-05\"' is not a number"):
+def test_quoted_numbers_are_numbers(tmp_path):
+    # csv.QUOTE_ALL (spreadsheets' "quote all values") was refused: "'\"1e-05\"' is not a number"
+    (tmp_path / "q.csv").write_text('"1e-05","2","3"\n')  # not a header either
+    np.testing.assert_array_equal(load_cloud(tmp_path / "q.csv"), [[1e-05, 2, 3]])
+    (tmp_path / "h.csv").write_text('"z","x","y"\n"0","1.5","-2"\n4, "5" ,6\n')
+    with pytest.warns(CloudFileWarning, match="another order"):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "h.csv"), [[1.5, -2, 0], [5, 6, 4]])
+
+
+def test_quoted_files_read_as_the_plain_file(tmp_path):
+    import csv
+
+    rng = np.random.default_rng(7)
+    cloud = rng.normal(size=(40, 3))
+    with open(tmp_path / "q.csv", "w", newline="") as handle:
+        writer = csv.writer(handle, quoting=csv.QUOTE_ALL)
+        writer.writerow(["x", "y", "z"])
+        writer.writerows(cloud.tolist())
+    save_cloud(cloud, tmp_path / "p.csv")
+    np.testing.assert_array_equal(load_cloud(tmp_path / "q.csv"), load_cloud(tmp_path / "p.csv"))
+
+
+def test_a_quoted_non_number_is_named_with_its_line(tmp_path):
+    (tmp_path / "q.csv").write_text('"x","y","z"\n"0","1.5","-2"\n"1","abc","2"\n')
+    with pytest.raises(CloudFileError, match=r"line 3, column 2: 'abc' is not a number"):
         load_cloud(tmp_path / "q.csv")
-    (tmp_path / "h.csv").write_text('"x","y","z"\n"0","1.5","-2"\n')  # under a header: as before
-    with pytest.raises(CloudFileError, match=r"line 2, column 1: '\"0\"' is not a number"):
-        load_cloud(tmp_path / "h.csv")
+    (tmp_path / "u.csv").write_text('"0","1.5","-2"\n"1,"2","3"\n')  # unbalanced quotes: as written
+    with pytest.raises(CloudFileError, match=r"line 2, column 1: '\"1' is not a number"):
+        load_cloud(tmp_path / "u.csv")
+
+
+def test_quoted_column_numbers_are_ambiguous_as_plain_ones(tmp_path):
+    (tmp_path / "q.csv").write_text('"0","1","2"\n"1.5","2","3"\n')
+    with pytest.raises(CloudFileError, match="pandas' header of column numbers or the point"):
+        load_cloud(tmp_path / "q.csv")
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("% exported 2026-11-25\nx,y,z\n1,2,3\n4,5,6\n", [[1, 2, 3], [4, 5, 6]]),  # was: 'x' is not a number
+        ("% exported\n% by a tool\nz,x,y\n1,2,3\n4,5,6\n", [[2, 3, 1], [5, 6, 4]]),
+        ("x,y,z\n1,2,3\n% a comment between the rows\n4,5,6\n", [[1, 2, 3], [4, 5, 6]]),
+        ("% a comment\n1 2 3\n4 5 6\n", [[1, 2, 3], [4, 5, 6]]),  # two words: no header
+        ("% z x y\n1 2 3\n4 5 6\n", [[2, 3, 1], [5, 6, 4]]),  # a header, as before
+        ("%depth,x,y\n1,2,3\n4,5,6\n", [[2, 3, 1], [5, 6, 4]]),  # one axis named: a header
+    ],
+    ids=["above-header", "two-above-header", "between-rows", "comment", "header", "partial-header"],
+)
+def test_percent_lines_are_matlab_comments(tmp_path, text, expected):
+    (tmp_path / "c.csv").write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CloudFileWarning)  # (the reordering headers say so)
+        np.testing.assert_array_equal(load_cloud(tmp_path / "c.csv"), expected)
+
+
+def test_a_percent_line_naming_three_columns_is_a_header_that_warns(tmp_path):
+    (tmp_path / "c.txt").write_text("% east north height\n1 2 3\n4 5 6\n")
+    with pytest.warns(CloudFileWarning, match="names none of the axes"):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "c.txt"), [[1, 2, 3], [4, 5, 6]])
+
+
+def test_a_file_of_percent_comments_only_is_empty(tmp_path):
+    (tmp_path / "c.csv").write_text("% nothing\n% here\n")
+    with pytest.raises(CloudFileError, match="empty"):
+        load_cloud(tmp_path / "c.csv")
 
 
 @pytest.mark.parametrize("sep", [" ", ",", "\t"])

@@ -1,7 +1,8 @@
 """Point-cloud files: ``.csv``, ``.txt``, ``.xyz`` (text) and ``.npy`` (numpy).
 
 Text files hold three numeric columns (x, y, z) separated by commas or white space, with an
-optional header line and optional ``#`` comments (a whole line, or the end of one). A header
+optional header line, optional ``#`` comments (a whole line, or the end of one) and optional
+whole-line ``%`` comments (MATLAB's; see :func:`_without_percent_comments`). A header
 that names the axes (``z,x,y``, ``X [mm],Y [mm],Z [mm]``, ``pos_z,pos_x,pos_y``, ``z;x;y``, or
 two of them: ``depth,x,y``; a leading ``%`` is not a name) says which column is which; a header
 naming each in its own column is a label; one naming none (``east,north,height``, ``py,px,pz``)
@@ -20,7 +21,8 @@ header ``x,y,z``, and their ``.txt``/``.xyz`` start with the comment ``# x y z``
 Numbers may be written with Fortran's exponent letter ``D`` (``1.0D+00``, as Fortran's
 double-precision output has it): they read as ``1.0E+00`` (a first line of them was taken for
 a header, and the error blamed line 2). Comma-separated rows may end in a comma (``1,2,3,``)
-when the first does: it closes the row and opens no fourth column. ``.npy`` files are read by
+when the first does: it closes the row and opens no fourth column. Comma-separated values
+may be quoted (``"1.0","2.0","3.0"``, as ``csv.QUOTE_ALL`` writes them). ``.npy`` files are read by
 :mod:`replication.io.npyclouds` (structured arrays with named fields included).
 Every problem is reported as a :class:`~replication.errors.CloudFileError` naming the file
 and, where it applies, the line.
@@ -83,6 +85,44 @@ def _is_float64_text(token: str) -> bool:
     """Whether numpy's text reader takes ``token`` as a number: Python's ``float`` also takes
     digit separators (``1_0``) and non-ASCII digits, which ``np.loadtxt`` refuses."""
     return token.isascii() and "_" not in token and _is_number(token)
+
+
+def _without_percent_comments(numbered: list[tuple[int, str]]) -> list[tuple[int, str]]:
+    """The lines without the whole-line ``%`` comments (MATLAB's and Octave's comment sign).
+
+    A ``%`` line directly above the first data line is the header when it names an axis or
+    three columns (``% x y z``, ``% depth,x,y``, ``% east north height``; see
+    :func:`_header_tokens`); any other line starting with ``%`` is a comment. A first line
+    ``% exported 2026-11-25`` above a header ``x,y,z`` was taken for the header, and the
+    file refused because of "line 2, column 1: 'x' is not a number".
+    """
+    if not any(data.lstrip().startswith("%") for _, data in numbered):
+        return numbered
+    kept: list[tuple[int, str]] = []
+    for k, (number, data) in enumerate(numbered):
+        if data.lstrip().startswith("%"):
+            below = numbered[k + 1][1] if k + 1 < len(numbered) else ""
+            header = not kept and not below.lstrip().startswith("%") and _is_data_line(below)
+            if header:
+                names = _header_tokens(data)
+                header = len(names) == 3 or any(axis_name(name) in ("x", "y", "z") for name in names)
+            if not header:
+                continue
+        kept.append((number, data))
+    return kept
+
+
+def _is_data_line(line: str) -> bool:
+    """Whether ``line`` holds a number (a data line, even a malformed one), not only names."""
+    return any(_is_number(_fortran(t.strip("\"'"))) for t in _split(line, "," in line))
+
+
+def _unquoted(line: str) -> str:
+    """A comma-separated data line with the CSV quotes around its values removed."""
+    values = [value.strip() for value in next(csv.reader([line], skipinitialspace=True))]
+    if any('"' in value for value in values):  # unbalanced quotes: reported as the file has them
+        return line
+    return ",".join(values)
 
 
 def _header_count(line: str) -> int | None:
@@ -211,13 +251,14 @@ def _load_text(path: Path) -> np.ndarray:
     # delimiter are decided on the data alone ("1 2 3 # first, in mm" was taken for a header
     # because of its comma, and the point was dropped without a word)
     numbered = [(i, data) for i, line in enumerate(lines, start=1) if (data := line.split("#", 1)[0]).strip()]
+    numbered = _without_percent_comments(numbered)
     if not numbered:
         raise CloudFileError(f"{path}: the file is empty (no data lines)")
     first_comma = "," in numbered[0][1]
     first_tokens = _split(numbered[0][1], first_comma)
     commented = _comment_header(path, lines, numbered[0][0])
     header, order = commented if commented is not None else (first_tokens, None)
-    # (a quoted number is a number here: a line of them is a malformed data line, not a header)
+    # (a quoted number is a number here: a line of them is a data line, not a header)
     numeric = any(_is_number(_fortran(t.strip("\"'"))) for t in first_tokens)
     if not numeric and any(c.isalpha() for c in numbered[0][1]):
         # a header line: names, no numeric token (a malformed data line such as "1;2;3" has no
@@ -257,7 +298,9 @@ def _load_text(path: Path) -> np.ndarray:
                     "is right"
                 )
             header, order = first_tokens, named
-    elif first_tokens == ["0", "1", "2"] and "#" not in "".join(lines[: numbered[0][0]]):
+    elif [t.strip('"') for t in first_tokens] == ["0", "1", "2"] and "#" not in "".join(
+        lines[: numbered[0][0]]
+    ):
         # pandas writes no comments: "# x y z" above it (save_cloud's .txt) or "0,1,2 # the
         # first point" says the line is a point
         raise _column_number_header(path, numbered[0][0], numbered[0][1])
@@ -268,6 +311,11 @@ def _load_text(path: Path) -> np.ndarray:
         # the row; it opens no fourth column (such files were refused as having 4 columns)
         written = dict(numbered)  # for messages: the lines as the file has them
         numbered = [(i, data.rstrip().removesuffix(",")) for i, data in numbered]
+    if comma and any('"' in line for _, line in numbered):
+        # every value quoted ('"1.0","2.0","3.0"', csv.QUOTE_ALL as spreadsheets export): the
+        # quotes delimit the numbers (such files were refused, "'\"1.0\"' is not a number")
+        written = written or dict(numbered)
+        numbered = [(i, _unquoted(data)) for i, data in numbered]
     body = "\n".join(line for _, line in numbered)
     if "d" in body or "D" in body:  # Fortran exponents (one scan of the text, not one per line)
         body = "\n".join(_as_read(line) for _, line in numbered)
