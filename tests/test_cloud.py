@@ -117,3 +117,48 @@ def test_every_stochastic_function_names_a_bad_rng(rng):
     for call in calls:
         with pytest.raises(InputError, match=f"rng must be a seed .* got {re.escape(repr(rng))}"):
             call()
+
+
+def _frame(columns):
+    import pandas as pd
+
+    return pd.DataFrame(columns)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: np.array([["1_000", "2", "3"], ["4", "5", "6"], ["7", "8", "1"]]),
+        lambda: np.array([[b"1", b"2", b"3"], [b"4", b"5", b"6"], [b"7", b"8", b"1"]]),
+        lambda: [["1_000", "2", "3"], ["4", "5", "6"], ["7", "8", "1"]],
+        lambda: np.array([[1.0, 2.0, 3.0], [4.0, " 5 ", 6.0], [7.0, 8.0, 1.0]], dtype=object),
+        lambda: _frame({"x": ["1_000", "4", "7"], "y": [2.0, 5, 8], "z": [3.0, 6, 1]}),
+        lambda: _frame({"z": ["3", "6", "1"], "y": ["2", "5", "8"], "x": ["1", "4", "7"]}),
+        lambda: _frame({"x": ["1", "4", "7"], "y": [2.0, 5, 8], "z": [3, 6, 1]}).astype({"x": "string"}),
+    ],
+    ids=["str", "bytes", "list", "object", "frame", "reordered-frame", "string-dtype"],
+)
+def test_text_coordinates_are_refused_as_a_file_of_them_is(make):
+    """numpy converted text by its own rules ('1_000' is 1000, ' 5 ' is 5) where a cloud file
+    and a .npy of text are refused: one cloud gave other points in memory than from its file."""
+    from replication.surfaces import adt
+    from replication.surfaces.cloud import as_cloud
+
+    for build in (as_cloud, adt):
+        with pytest.raises(InputError, match=r"points holds text \((dtype|such as) .*\), not numbers"):
+            build(make())
+
+
+@pytest.mark.parametrize(
+    "points",
+    [
+        [[0.0, 0.0, 0.0], [1.0, 0.0, 0.5], [0.0, 1.0, 0.25]],
+        np.array([[0, 0, 0], [1, 0, 0.5], [0, 1, 0.25]], dtype=object),
+        (np.zeros(3), np.array([1.0, 0.0, 0.5]), np.array([0.0, 1.0, 0.25])),
+    ],
+    ids=["list", "object-of-numbers", "tuple-of-arrays"],
+)
+def test_numbers_in_lists_and_object_arrays_still_read(points):
+    from replication.surfaces.cloud import as_cloud
+
+    np.testing.assert_array_equal(as_cloud(points), [[0, 0, 0], [1, 0, 0.5], [0, 1, 0.25]])

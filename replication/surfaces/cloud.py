@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from replication.errors import CloudFileError, InputError, shown
+from replication.errors import CloudFileError, InputError, shortened, shown
 
 __all__ = [
     "Box",
@@ -249,6 +249,38 @@ def _column_order(columns: Any, name: str) -> list[int] | None:
     return None if order == [0, 1, 2] else order
 
 
+def _refuse_text(points: object, name: str) -> None:
+    """Refuse coordinates given as text: numpy converts strings by its own, looser rules
+    (``'1_000'`` is 1000, ``' 2 '`` is 2) where a cloud file, a ``.npy`` of text and
+    :func:`~replication.io.load_cloud` refuse them, so one cloud gave other points in memory
+    than from its file. Text arrays, and object arrays (a DataFrame's text columns) holding
+    a string, are refused."""
+    arr = points if isinstance(points, np.ndarray) else None
+    dtypes = getattr(points, "dtypes", None)  # a frame: its text columns are object (or string) columns
+    if arr is None and dtypes is not None and hasattr(points, "to_numpy"):
+        if any(getattr(d, "kind", "O") in "USO" for d in dtypes):
+            arr = np.asarray(points.to_numpy(dtype=object))
+    elif arr is None and isinstance(points, (list, tuple)):
+        try:
+            arr = np.asarray(points)
+        except (TypeError, ValueError):  # ragged lists: refused by the checks that follow
+            return
+    if arr is None or arr.dtype.kind not in "USO":
+        return
+    if arr.dtype.kind == "O":
+        text = next((v for v in arr.flat if isinstance(v, (str, bytes, np.str_, np.bytes_))), None)
+        if text is None:
+            return
+        example = f"such as {shortened(str(text))!r}"
+    else:
+        example = f"dtype {arr.dtype}"
+    raise InputError(
+        f"{name} holds text ({example}), not numbers: numpy would convert it by its own rules "
+        "('1_000' is 1000); convert the coordinates to numbers first, or read the file with "
+        "replication.io.load_cloud"
+    )
+
+
 def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
     """Validate a point cloud and return it as a float64 array of shape (n, 3).
 
@@ -259,8 +291,9 @@ def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
     Raises
     ------
     InputError
-        Wrong shape, non-numeric or complex values, or NaN/infinite coordinates (the rows are
-        named); column or field names that contradict each other (an axis named twice).
+        Wrong shape, non-numeric or complex values, text (strings are not converted: see
+        :func:`_refuse_text`), or NaN/infinite coordinates (the rows are named); column or
+        field names that contradict each other (an axis named twice).
     """
     points = _named_columns(points, name)
     if isinstance(points, np.ma.MaskedArray) and np.ma.is_masked(points):
@@ -268,6 +301,7 @@ def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
             f"{name}: {int(np.ma.count_masked(points))} masked value(s): numpy would use the values "
             "hidden under the mask; drop those points or fill them first"
         )
+    _refuse_text(points, name)
     try:
         kind = (points if isinstance(points, np.ndarray) else np.asarray(points)).dtype.kind
         complex_values = kind == "c"
