@@ -460,6 +460,33 @@ def test_option_values_out_of_range_exit_2(capsys, tmp_path, monkeypatch, argv, 
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["adt", "--random", "50", "--step", "100", "-o", "s.vtk"], "--step 100 leaves a lattice of 1 x 1"),
+        (["nurbs", "--random", "50", "--step", "31", "-o", "s.json"], "use a step of at most 30, the box's"),
+        (
+            ["adt", "--random", "50", "--step", "2", "--box", "0", "1", "0", "1", "0", "10", "-o", "s.vtk"],
+            "lattice of 1 x 1 x 6 value(s) in the box, so every point lies on one line",
+        ),
+    ],
+)
+def test_a_step_that_puts_every_point_on_a_line_is_named(capsys, tmp_path, monkeypatch, argv, match):
+    """It failed with "need at least 3 distinct projected points, got 1", naming neither the
+    step nor the box; now a usage error, before any work, in one line."""
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run(capsys, *argv)
+    assert code == 2 and match in err and err.count("\n") == 1 and out == ""
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_step_that_leaves_two_axes_with_lattice_values_builds(capsys, tmp_path, monkeypatch):
+    """The --step check refuses only a lattice on one line: 2 x 2 x 1 values span a plane."""
+    monkeypatch.chdir(tmp_path)
+    code, out, _ = run(capsys, "adt", "--random", "60", "--seed", "1", "--step", "30", "--json")
+    assert code == 0 and json.loads(out)["vertices"] == 4
+
+
 def test_the_files_the_help_examples_name_can_be_made_as_the_help_says(tmp_path, monkeypatch, capsys):
     """`replication force bucket.csv` and `adt sphere.xyz --split z=0` named files that nothing
     shipped and nothing said how to make."""

@@ -277,6 +277,8 @@ def load_or_generate(args: argparse.Namespace) -> tuple[np.ndarray, str, dict[st
         box = CASE_STUDY_BOX if args.box is None else Box.from_bounds(args.box)
     except InputError as exc:  # bounds out of order: a misused --box, refused before any work
         raise UsageError(f"--box {' '.join(f'{v:g}' for v in args.box)}: {exc}") from exc
+    if args.step is not None:
+        _check_lattice(box, args.step)
     writes = args.save_cloud is not None or (
         args.command == "adt" and getattr(args, "output", None) is not None
     )
@@ -289,6 +291,30 @@ def load_or_generate(args: argparse.Namespace) -> tuple[np.ndarray, str, dict[st
         "step": args.step,
     }
     return cloud, f"{args.random} random points (seed {seed})", meta
+
+
+def _check_lattice(box: Any, step: float) -> None:
+    """Refuse a --step that leaves fewer than two lattice values on two of the box's axes.
+
+    Every point of such a lattice lies on one line (or is one point), and the build failed
+    with "need at least 3 distinct projected points, got 1", which named neither the step
+    nor the box.
+    """
+    from replication.surfaces.cloud import lattice_count
+
+    bounds = [(box.xmin, box.xmax), (box.ymin, box.ymax), (box.zmin, box.zmax)]
+    try:
+        counts = [lattice_count(lo, hi, step) for lo, hi in bounds]
+    except InputError as exc:
+        raise UsageError(f"--step {step:g}: {exc}") from exc
+    if sum(count >= 2 for count in counts) >= 2:
+        return
+    sides = sorted((hi - lo for lo, hi in bounds), reverse=True)
+    raise UsageError(
+        f"--step {step:g} leaves a lattice of {' x '.join(map(str, counts))} value(s) in the box, so every "
+        f"point lies on one line and no surface can be built; use a step of at most {sides[1]:g}, the "
+        "box's second-longest side"
+    )
 
 
 def warm_up(kind: str, args: argparse.Namespace) -> float:
