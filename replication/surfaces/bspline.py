@@ -28,7 +28,9 @@ def _params(params: np.ndarray) -> np.ndarray:
     bad = np.flatnonzero(~(np.isfinite(params) & (params >= 0) & (params <= 1)).all(axis=1))
     if bad.size:
         row = params[bad[0]].tolist()
-        raise InputError(f"NURBS parameters must be finite and within [0, 1]; row {bad[0]} is {row}")
+        raise InputError(
+            f"NURBS parameters must be finite and within [0, 1]; row {bad[0]} (counted from 0) is {row}"
+        )
     return params
 
 
