@@ -120,7 +120,8 @@ class DuplicatePointsWarning(UserWarning):
 
 
 class CloudFileWarning(UserWarning):
-    """A point-cloud file that was read, but with a doubt worth telling the user about."""
+    """A point-cloud file (or a frame's column names) read, but with a doubt worth telling
+    the user about."""
 
 
 class JetUnitsWarning(UserWarning):

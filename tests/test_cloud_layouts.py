@@ -300,3 +300,33 @@ def test_hierarchical_columns_whose_levels_disagree_or_say_nothing():
     twice = pd.MultiIndex.from_tuples([("x", "lo"), ("x", "hi"), ("y", "mid")])
     with pytest.raises(InputError, match=r"the columns x, x, y name the axis x more than once"):
         as_cloud(pd.DataFrame(CLOUD, columns=twice))
+
+
+def test_names_of_one_axis_warn_that_the_other_two_are_a_guess(tmp_path):
+    """lat,lon,z was read as x = lat, y = lon without a word (east,north,height warned): in
+    geographic data latitude is the y. Header, .npy fields and frame columns all say so."""
+    import pandas as pd
+
+    from replication.surfaces.cloud import as_cloud
+
+    said = r"name only the axis z, so the other (columns|fields) were read in their order, 'lat' as x"
+    (tmp_path / "c.csv").write_text("lat,lon,z\n" + "".join(f"{x},{y},{z}\n" for x, y, z in CLOUD))
+    with pytest.warns(CloudFileWarning, match=said.replace("name only", "names only")):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "c.csv"), CLOUD)
+    records = np.rec.fromarrays(CLOUD.T, names=["lat", "lon", "z"])
+    np.save(tmp_path / "c.npy", records)
+    with pytest.warns(CloudFileWarning, match=said):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "c.npy"), CLOUD)
+    for columns in (["lat", "lon", "z"], pd.MultiIndex.from_tuples([("p", "lat"), ("p", "lon"), ("p", "z")])):
+        with pytest.warns(CloudFileWarning, match=said):
+            np.testing.assert_array_equal(as_cloud(pd.DataFrame(CLOUD, columns=columns)), CLOUD)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # two axes named (the third by elimination), or all three: no guess
+        for names in (["x", "y", "height"], ["depth", "x", "y"], ["z", "x", "y"]):
+            (tmp_path / "d.csv").write_text(",".join(names) + "\n1,2,3\n4,5,6\n")
+            try:
+                load_cloud(tmp_path / "d.csv")
+            except CloudFileWarning as warned:
+                assert "another order" in str(warned), names  # (the reordering's own warning)
+        as_cloud(pd.DataFrame(CLOUD))  # a frame's default column numbers name nothing: no warning
+        as_cloud(pd.DataFrame(CLOUD, columns=["x", "y", "height"]))

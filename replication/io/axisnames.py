@@ -94,6 +94,31 @@ def axis_order(path: Path, tokens: list[str], *, what: str = "header") -> list[i
     )
 
 
+def lone_axis_message(path: Path, tokens: list[str], *, what: str = "header") -> str | None:
+    """The warning for names that name one axis, in its own column, and two other columns
+    (``lat,lon,z``): which of those is x and which y is a guess (their order is taken; in
+    geographic data latitude is the y), or None when the names say every column or none.
+
+    ``lat,lon,z`` was read as x = lat, y = lon without a word, while ``east,north,height``
+    (no axis named) warned: naming z made the guess look like a reading of the names.
+    """
+    names = [axis_name(t) for t in tokens]
+    named = [name for name in names if name in ("x", "y", "z")]
+    if len(names) != 3 or len(named) != 1:
+        return None
+    axis = named[0]
+    if names["xyz".index(axis)] != axis:  # (in another column: axis_order refuses it)
+        return None
+    verb, column, _, _ = _WORDING[what]
+    others = [k for k in range(3) if names[k] != axis]
+    read_as = [a for a in "xyz" if a != axis]
+    said = " and ".join(f"{tokens[k].strip()!r} as {a}" for k, a in zip(others, read_as))
+    return (
+        f"{path}: the {what} {quoted_names(tokens)} {verb} only the axis {axis}, so the other {column}s were "
+        f"read in their order, {said}; name them {read_as[0]} and {read_as[1]} to say which is which"
+    )
+
+
 #: For each holder of names: its verb, what it calls a column, how to be rid of pandas' row
 #: index in it, and what else a message offers.
 _WORDING = {

@@ -42,7 +42,7 @@ import numpy as np
 
 from replication.errors import CloudFileError, CloudFileWarning, InputError, shortened, shown
 from replication.io.atomic import atomic_path, atomic_write_text
-from replication.io.axisnames import axis_name, axis_order, quoted_names
+from replication.io.axisnames import axis_name, axis_order, lone_axis_message, quoted_names
 from replication.io.npyclouds import load_npy
 from replication.io.paths import dangling, lookup
 from replication.io.vtk import shortest_decimals
@@ -290,6 +290,9 @@ def _load_text(path: Path) -> np.ndarray:
                 CloudFileWarning,
                 stacklevel=3,
             )
+        lone = lone_axis_message(path, first_tokens) if commented is None else None
+        if lone is not None:
+            warnings.warn(lone, CloudFileWarning, stacklevel=3)
         if commented is None or not labels:  # a label header (east,north,height) leaves the comment's order
             if commented is not None and named != order:
                 raise CloudFileError(

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from replication.errors import CloudFileError, CloudFileWarning
-from replication.io.axisnames import axis_name, axis_order, quoted_names
+from replication.io.axisnames import axis_name, axis_order, lone_axis_message, quoted_names
 
 __all__ = ["load_npy", "unstructured"]
 
@@ -129,6 +129,9 @@ def unstructured(path: Path, data: np.ndarray) -> np.ndarray:
             f"{data.shape}"
         )
     order = axis_order(path, names, what="fields") or [0, 1, 2]
+    lone = lone_axis_message(path, names, what="fields")
+    if lone is not None:
+        warnings.warn(lone, CloudFileWarning, stacklevel=4)
     if not any(axis_name(name) in ("x", "y", "z") for name in names):
         warnings.warn(
             f"{path}: the fields {listed} name none of the axes x, y and z, so they were read in their "

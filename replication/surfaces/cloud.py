@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from replication.errors import CloudFileError, InputError, shortened, shown
+from replication.errors import CloudFileError, CloudFileWarning, InputError, shortened, shown
 
 __all__ = [
     "Box",
@@ -220,7 +220,7 @@ def _column_order(columns: Any, name: str) -> list[int] | None:
     make an order (``("z", "w", "v")`` beside ``("x", "y", "z")``) is passed over when another
     level makes one; levels that make different orders are refused.
     """
-    from replication.io.axisnames import axis_name, axis_order
+    from replication.io.axisnames import axis_name, axis_order, lone_axis_message
 
     labels = list(columns)
     if getattr(columns, "nlevels", 1) > 1:
@@ -228,7 +228,10 @@ def _column_order(columns: Any, name: str) -> list[int] | None:
     elif labels and all(isinstance(c, tuple) for c in labels) and len({len(c) for c in labels}) == 1:
         levels = [[str(c[k]) for c in labels] for k in range(len(labels[0]))]
     else:
-        return axis_order(Path(name), [str(c) for c in labels], what="columns")
+        flat = [str(c) for c in labels]
+        order = axis_order(Path(name), flat, what="columns")
+        _warn_lone([lone_axis_message(Path(name), flat, what="columns")])
+        return order
     orders: dict[int, list[int]] = {}
     refused: list[CloudFileError] = []
     for k, level in enumerate(levels):
@@ -245,8 +248,19 @@ def _column_order(columns: Any, name: str) -> list[int] | None:
             f"{name}: the column levels name different axes for the same columns ({said}): name the "
             "axes in one level"
         )
+    if orders:  # (the levels that name an axis all name one only: which other is x is a guess)
+        _warn_lone([lone_axis_message(Path(name), levels[k], what="columns") for k in orders])
     order = next(iter(orders.values()), None)
     return None if order == [0, 1, 2] else order
+
+
+def _warn_lone(messages: list[str | None]) -> None:
+    """Warn with the first message when every one is a warning (a frame's columns that name
+    one axis only, ``lat, lon, z``: see :func:`replication.io.axisnames.lone_axis_message`)."""
+    if messages and all(m is not None for m in messages):
+        import warnings
+
+        warnings.warn(messages[0], CloudFileWarning, stacklevel=5)
 
 
 def _refuse_text(points: object, name: str) -> None:
