@@ -142,3 +142,20 @@ def test_case_study_speed_ups_are_over_one_core_whichever_configurations_run(mon
     assert "Speed-ups over the first row, one core." in text
     # everything but the GA: median of 2 and 4 = 3 s; bound (3 + 8) / (3 + 4) = 1.57x
     assert "bound the command at 1.57x over the first row" in text
+
+
+def test_median_ratio_takes_the_clock_it_is_given():
+    """The user-CPU ratio of ADTGrowth uses median_ratio's clock: a fake clock that each call
+    advances by a known amount gives the known ratio, and the median of uneven pairs."""
+    from benchmarks.benchmark_adt import _user_cpu, median_ratio
+
+    now = [0.0]
+    steps = iter([3.0, 1.0, 30.0, 1.0, 5.0, 1.0])  # pairs 3, 30 and 5: median 5
+
+    def work():
+        now[0] += next(steps)
+
+    assert median_ratio(work, work, repeats=3, clock=lambda: now[0]) == 5.0
+    before = _user_cpu()
+    sum(i * i for i in range(200_000))
+    assert _user_cpu() > before
