@@ -458,7 +458,7 @@ def test_quoted_files_read_as_the_plain_file(tmp_path):
 
 def test_a_quoted_non_number_is_named_with_its_line(tmp_path):
     (tmp_path / "q.csv").write_text('"x","y","z"\n"0","1.5","-2"\n"1","abc","2"\n')
-    with pytest.raises(CloudFileError, match=r"line 3, column 2: 'abc' is not a number"):
+    with pytest.raises(CloudFileError, match=r"line 3, column 2: '\"abc\"' is not a number"):
         load_cloud(tmp_path / "q.csv")
     (tmp_path / "u.csv").write_text('"0","1.5","-2"\n"1,"2","3"\n')  # unbalanced quotes: as written
     with pytest.raises(CloudFileError, match=r"line 2, column 1: '\"1' is not a number"):
@@ -488,6 +488,56 @@ def test_percent_lines_are_matlab_comments(tmp_path, text, expected):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", CloudFileWarning)  # (the reordering headers say so)
         np.testing.assert_array_equal(load_cloud(tmp_path / "c.csv"), expected)
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "% z x y\n% ------\n1 2 3\n4 5 6\n",  # (the header was dropped: read in file order, silently)
+        "% z x y\n% units: mm\n1 2 3\n4 5 6\n",
+        "% z x y\n%\n1 2 3\n4 5 6\n",
+        "% z,x,y\n% mm,mm,mm\n1,2,3\n4,5,6\n",
+        "# z x y\n% exported\n1 2 3\n4 5 6\n",  # (the '#' header was lost behind the '%' comment)
+        "% exported\n% z x y\n1 2 3\n4 5 6\n",
+    ],
+)
+def test_a_percent_header_is_found_among_percent_comments(tmp_path, text):
+    (tmp_path / "c.txt").write_text(text)
+    with pytest.warns(CloudFileWarning, match="another order"):
+        np.testing.assert_array_equal(load_cloud(tmp_path / "c.txt"), [[2, 3, 1], [5, 6, 4]])
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("% z x y\n% x is east\n1 2 3\n", r"lines 1 \('% z x y'\) and 2 \('% x is east'\) both name"),
+        ("% Export\n% Columns: z x y\n1 2 3\n", r"names the axes x, y, z among 4 words separated by spaces"),
+        ("Columns: z x y\n1 2 3\n", r"names the axes x, y, z among 4 words"),  # was: read in file order
+    ],
+)
+def test_headers_whose_columns_cannot_be_told_are_refused(tmp_path, text, match):
+    (tmp_path / "c.txt").write_text(text)
+    with pytest.raises(CloudFileError, match=match):
+        load_cloud(tmp_path / "c.txt")
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ('"1,5","2"\n"3,5","4"\n', r"line 1, column 1: '\"1' is not a number"),  # a decimal comma
+        ('x,y,z\n"1,000","2"\n', r"line 2, column 1: '\"1' is not a number"),
+        ('1,"2,3"\n4,5,6\n', r"line 1, column 2: '\"2' is not a number"),
+        ('1,2,"3\n4,5,6\n', r"line 1, column 3: '\"3' is not a number"),  # quotes that do not close
+        ('x,y,z\n"1"x,2,3\n', r"line 2, column 1: '\"1\"x' is not a number"),
+        ('x,y,z\n"",2,3\n', r"line 2, column 1: '\"\"' is not a number"),
+        ('" 0","1","2"\n1.5,2,3\n', r"pandas' header of column numbers or the point"),
+    ],
+)
+def test_quoted_values_that_are_not_one_number_each_are_refused_as_written(tmp_path, text, match):
+    """Their values joined again by commas were other columns: "1,5","2" read as 1, 5, 2."""
+    (tmp_path / "c.csv").write_text(text)
+    with pytest.raises(CloudFileError, match=match):
+        load_cloud(tmp_path / "c.csv")
 
 
 def test_a_percent_line_naming_three_columns_is_a_header_that_warns(tmp_path):

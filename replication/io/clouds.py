@@ -87,29 +87,45 @@ def _is_float64_text(token: str) -> bool:
     return token.isascii() and "_" not in token and _is_number(token)
 
 
-def _without_percent_comments(numbered: list[tuple[int, str]]) -> list[tuple[int, str]]:
-    """The lines without the whole-line ``%`` comments (MATLAB's and Octave's comment sign).
+def _without_percent_comments(
+    path: Path, numbered: list[tuple[int, str]]
+) -> tuple[list[tuple[int, str]], set[int]]:
+    """The lines without the whole-line ``%`` comments (MATLAB's and Octave's comment sign),
+    and the numbers of the lines dropped.
 
-    A ``%`` line directly above the first data line is the header when it names an axis or
-    three columns (``% x y z``, ``% depth,x,y``, ``% east north height``; see
-    :func:`_header_tokens`); any other line starting with ``%`` is a comment. A first line
-    ``% exported 2026-11-25`` above a header ``x,y,z`` was taken for the header, and the
-    file refused because of "line 2, column 1: 'x' is not a number".
+    Of the ``%`` lines above the first data line (with no header line between them and the
+    data), one that names an axis or three columns (``% z x y``, ``% depth,x,y``, ``% east
+    north height``) is the header, as it would be directly above the data; when several
+    could be, the one naming an axis is, and two naming axes are refused (which is the
+    header cannot be told). Every other ``%`` line is a comment. A first line ``% exported
+    2026-11-25`` above a header ``x,y,z`` was taken for the header, and the file refused at
+    "line 2, column 1: 'x' is not a number".
     """
-    if not any(data.lstrip().startswith("%") for _, data in numbered):
-        return numbered
-    kept: list[tuple[int, str]] = []
-    for k, (number, data) in enumerate(numbered):
-        if data.lstrip().startswith("%"):
-            below = numbered[k + 1][1] if k + 1 < len(numbered) else ""
-            header = not kept and not below.lstrip().startswith("%") and _is_data_line(below)
-            if header:
-                names = _header_tokens(data)
-                header = len(names) == 3 or any(axis_name(name) in ("x", "y", "z") for name in names)
-            if not header:
-                continue
-        kept.append((number, data))
-    return kept
+    is_percent = [data.lstrip().startswith("%") for _, data in numbered]
+    first = next((k for k, percent in enumerate(is_percent) if not percent), len(numbered))
+    candidates: list[int] = []
+    if first < len(numbered) and _is_data_line(numbered[first][1]):  # no header line below them
+        for k in range(first):
+            names = _header_tokens(numbered[k][1])
+            if len(names) == 3 or _names_an_axis(names):
+                candidates.append(k)
+    if len(candidates) > 1:
+        naming = [k for k in candidates if _names_an_axis(_header_tokens(numbered[k][1]))]
+        if len(naming) > 1:
+            shown_lines = " and ".join(f"{numbered[k][0]} ({numbered[k][1].strip()!r})" for k in naming[:2])
+            raise CloudFileError(
+                f"{path}: the comment lines {shown_lines} both name axes above the data, and which one "
+                "names the columns cannot be told: keep one, or start the other with '#'"
+            )
+        candidates = naming or candidates[-1:]
+    keep = set(candidates)
+    kept = [line for k, line in enumerate(numbered) if not is_percent[k] or k in keep]
+    dropped = {number for k, (number, _) in enumerate(numbered) if is_percent[k] and k not in keep}
+    return kept, dropped
+
+
+def _names_an_axis(names: list[str]) -> bool:
+    return any(axis_name(name) in ("x", "y", "z") for name in names)
 
 
 def _is_data_line(line: str) -> bool:
@@ -117,10 +133,22 @@ def _is_data_line(line: str) -> bool:
     return any(_is_number(_fortran(t.strip("\"'"))) for t in _split(line, "," in line))
 
 
+_SPACED_COMMA = re.compile(r"\s*,\s*")
+
+
 def _unquoted(line: str) -> str:
-    """A comma-separated data line with the CSV quotes around its values removed."""
-    values = [value.strip() for value in next(csv.reader([line], skipinitialspace=True))]
-    if any('"' in value for value in values):  # unbalanced quotes: reported as the file has them
+    """A comma-separated data line with the CSV quotes around its values removed.
+
+    A line whose quotes do not close, or a value holding a comma or a quote (``"1,5"``, a
+    decimal comma) is left as the file has it, and so reported: its values joined by commas
+    again would be other columns.
+    """
+    try:
+        spaced = _SPACED_COMMA.sub(",", line.strip())  # ('4, "5" ,6': no space after a closing quote)
+        values = [value.strip() for value in next(csv.reader([spaced], strict=True))]
+    except csv.Error:
+        return line
+    if any("," in value or '"' in value for value in values):
         return line
     return ",".join(values)
 
@@ -163,9 +191,16 @@ def _diagnose(
             return CloudFileError(
                 f"{path}: line {number} has {len(tokens)} column(s), expected 3 (x, y, z): {quoted!r}"
             )
+        as_written = tokens
+        if written and number in written:  # (a closing comma cut, or quotes removed)
+            as_written = _split(written[number].rstrip().removesuffix(","), comma)
+            as_written = as_written if len(as_written) == len(tokens) else tokens
         for column, token in enumerate(tokens, start=1):
             if not _is_float64_text(_fortran(token)):
-                return CloudFileError(f"{path}: line {number}, column {column}: {token!r} is not a number")
+                shown_token = as_written[column - 1]
+                return CloudFileError(
+                    f"{path}: line {number}, column {column}: {shown_token!r} is not a number"
+                )
     return CloudFileError(f"{path}: could not parse the file as three numeric columns")
 
 
@@ -251,7 +286,9 @@ def _load_text(path: Path) -> np.ndarray:
     # delimiter are decided on the data alone ("1 2 3 # first, in mm" was taken for a header
     # because of its comma, and the point was dropped without a word)
     numbered = [(i, data) for i, line in enumerate(lines, start=1) if (data := line.split("#", 1)[0]).strip()]
-    numbered = _without_percent_comments(numbered)
+    if "%" in text:
+        numbered, dropped = _without_percent_comments(path, numbered)
+        lines = ["" if number in dropped else line for number, line in enumerate(lines, start=1)]
     if not numbered:
         raise CloudFileError(f"{path}: the file is empty (no data lines)")
     first_comma = "," in numbered[0][1]
@@ -280,6 +317,14 @@ def _load_text(path: Path) -> np.ndarray:
                 "has 3 (x, y, z): name the file's three columns, or give no header"
                 + ("; its first column is pandas' row index: save with to_csv(index=False)" if index else "")
             )
+        axes_named = sorted({axis_name(t) for t in first_tokens} & {"x", "y", "z"})
+        if counted is None and len(first_tokens) != 3 and len(axes_named) >= 2:
+            # ("Columns: z x y" was read in file order, its names unread: four words, not three)
+            raise CloudFileError(
+                f"{path}: the header {quoted_names(first_tokens)} names the axes {', '.join(axes_named)} "
+                f"among {len(first_tokens)} words separated by spaces, so which column is which cannot be "
+                "told: write it as three names (such as 'z x y'), or separate the names by commas"
+            )
         named = axis_order(path, first_tokens) or [0, 1, 2]
         labels = not any(axis_name(t) in ("x", "y", "z") for t in first_tokens)
         if labels and commented is None:  # ("py,px,pz" or "lat,lon,alt": which axis is which is a guess)
@@ -301,7 +346,7 @@ def _load_text(path: Path) -> np.ndarray:
                     "is right"
                 )
             header, order = first_tokens, named
-    elif [t.strip('"') for t in first_tokens] == ["0", "1", "2"] and "#" not in "".join(
+    elif [t.strip().strip('"').strip() for t in first_tokens] == ["0", "1", "2"] and "#" not in "".join(
         lines[: numbered[0][0]]
     ):
         # pandas writes no comments: "# x y z" above it (save_cloud's .txt) or "0,1,2 # the
@@ -314,7 +359,7 @@ def _load_text(path: Path) -> np.ndarray:
         # the row; it opens no fourth column (such files were refused as having 4 columns)
         written = dict(numbered)  # for messages: the lines as the file has them
         numbered = [(i, data.rstrip().removesuffix(",")) for i, data in numbered]
-    if comma and any('"' in line for _, line in numbered):
+    if comma and '"' in text and any('"' in line for _, line in numbered):
         # every value quoted ('"1.0","2.0","3.0"', csv.QUOTE_ALL as spreadsheets export): the
         # quotes delimit the numbers (such files were refused, "'\"1.0\"' is not a number")
         written = written or dict(numbered)
