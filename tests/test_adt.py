@@ -161,7 +161,7 @@ def test_degenerate_clouds(cloud, match):
         (np.zeros((4, 2)), r"shape \(n, 3\), got shape \(4, 2\)"),
         (np.zeros((0, 3)), "empty"),
         ([[0, 0, 0], [1, 0, np.nan], [0, 1, 0], [1, np.inf, 1]], r"2 row\(s\), counted from 0: 1, 3"),
-        ([["a", "b", "c"]], r"holds text \(dtype <U1\), not numbers"),
+        ([["a", "b", "c"]], r"holds text \(such as 'a'\), not numbers"),
     ],
     ids=["shape", "empty", "nan", "text"],
 )

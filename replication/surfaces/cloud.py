@@ -263,34 +263,24 @@ def _warn_lone(messages: list[str | None]) -> None:
         warnings.warn(messages[0], CloudFileWarning, stacklevel=5)
 
 
-def _refuse_text(points: object, name: str) -> None:
+def _refuse_text(arr: np.ndarray, name: str) -> None:
     """Refuse coordinates given as text: numpy converts strings by its own, looser rules
     (``'1_000'`` is 1000, ``' 2 '`` is 2) where a cloud file, a ``.npy`` of text and
     :func:`~replication.io.load_cloud` refuse them, so one cloud gave other points in memory
-    than from its file. Text arrays, and object arrays (a DataFrame's text columns) holding
-    a string, are refused."""
-    arr = points if isinstance(points, np.ndarray) else None
-    dtypes = getattr(points, "dtypes", None)  # a frame: its text columns are object (or string) columns
-    if arr is None and dtypes is not None and hasattr(points, "to_numpy"):
-        if any(getattr(d, "kind", "O") in "USO" for d in dtypes):
-            arr = np.asarray(points.to_numpy(dtype=object))
-    elif arr is None and isinstance(points, (list, tuple)):
-        try:
-            arr = np.asarray(points)
-        except (TypeError, ValueError):  # ragged lists: refused by the checks that follow
+    than from its file. Text arrays, and object arrays (a DataFrame's text columns, as numpy
+    converts them) holding a string, are refused."""
+    if arr.dtype.kind in "US":
+        text = arr.ravel()[0] if arr.size else ""
+    elif arr.dtype.kind == "O":
+        values = arr.ravel().tolist()
+        if not any(issubclass(kind, (str, bytes)) for kind in set(map(type, values))):
             return
-    if arr is None or arr.dtype.kind not in "USO":
-        return
-    if arr.dtype.kind == "O":
-        text = next((v for v in arr.flat if isinstance(v, (str, bytes, np.str_, np.bytes_))), None)
-        if text is None:
-            return
-        example = f"such as {shortened(str(text))!r}"
+        text = next(v for v in values if isinstance(v, (str, bytes)))
     else:
-        example = f"dtype {arr.dtype}"
+        return
     raise InputError(
-        f"{name} holds text ({example}), not numbers: numpy would convert it by its own rules "
-        "('1_000' is 1000); convert the coordinates to numbers first, or read the file with "
+        f"{name} holds text (such as {shortened(str(text))!r}), not numbers: numpy would convert it by its "
+        "own rules ('1_000' is 1000); convert the coordinates to numbers first, or read the file with "
         "replication.io.load_cloud"
     )
 
@@ -315,16 +305,19 @@ def as_cloud(points: ArrayLike, *, name: str = "points") -> np.ndarray:
             f"{name}: {int(np.ma.count_masked(points))} masked value(s): numpy would use the values "
             "hidden under the mask; drop those points or fill them first"
         )
-    _refuse_text(points, name)
     try:
-        kind = (points if isinstance(points, np.ndarray) else np.asarray(points)).dtype.kind
-        complex_values = kind == "c"
-        arr = None if complex_values or kind in _NOT_COORDINATES else np.asarray(points, dtype=np.float64)
+        given = points if isinstance(points, np.ndarray) else np.asarray(points)  # converted once
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name} must be numeric, got {type(points).__name__}: {exc}") from exc
+    kind = given.dtype.kind
+    _refuse_text(given, name)
+    complex_values = kind == "c"
+    try:
+        arr = None if complex_values or kind in _NOT_COORDINATES else np.asarray(given, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise InputError(f"{name} must be numeric, got {type(points).__name__}: {exc}") from exc
     if kind in _NOT_COORDINATES:  # numpy converts them to numbers without a word
-        dtype = (points if isinstance(points, np.ndarray) else np.asarray(points)).dtype
-        raise InputError(f"{name} must be coordinates, got {_NOT_COORDINATES[kind]} (dtype {dtype})")
+        raise InputError(f"{name} must be coordinates, got {_NOT_COORDINATES[kind]} (dtype {given.dtype})")
     if arr is None:
         raise InputError(
             f"{name} must be real numbers, got complex values (numpy would drop the imaginary parts)"
