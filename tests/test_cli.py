@@ -464,7 +464,7 @@ def test_option_values_out_of_range_exit_2(capsys, tmp_path, monkeypatch, argv, 
     ("argv", "match"),
     [
         (["adt", "--random", "50", "--step", "100", "-o", "s.vtk"], "--step 100 leaves a lattice of 1 x 1"),
-        (["nurbs", "--random", "50", "--step", "31", "-o", "s.json"], "use a step of at most 30, the box's"),
+        (["nurbs", "--random", "50", "--step", "31", "-o", "s.json"], "use a step of at most 30.0, the"),
         (
             ["adt", "--random", "50", "--step", "2", "--box", "0", "1", "0", "1", "0", "10", "-o", "s.vtk"],
             "lattice of 1 x 1 x 6 value(s) in the box, so every point lies on one line",
@@ -478,6 +478,17 @@ def test_a_step_that_puts_every_point_on_a_line_is_named(capsys, tmp_path, monke
     code, out, err = run(capsys, *argv)
     assert code == 2 and match in err and err.count("\n") == 1 and out == ""
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_step_the_lattice_error_suggests_builds(capsys, tmp_path, monkeypatch):
+    """The largest step is shown in full: 0.123457 (rounded up past the side) was refused too."""
+    monkeypatch.chdir(tmp_path)
+    box = ["--box", "0", "0.1234567", "0", "0.1234567", "0", "1"]
+    code, _, err = run(capsys, "adt", "--random", "50", "--step", "1", *box, "-o", "s.vtk")
+    assert code == 2 and "at most 0.1234567," in err
+    argv = ["adt", "--random", "50", "--seed", "2", "--step", "0.1234567", *box, "-o", "s.vtk"]
+    code, _, _ = run(capsys, *argv)
+    assert code == 0
 
 
 def test_a_step_that_leaves_two_axes_with_lattice_values_builds(capsys, tmp_path, monkeypatch):

@@ -312,7 +312,7 @@ def _check_lattice(box: Any, step: float) -> None:
     sides = sorted((hi - lo for lo, hi in bounds), reverse=True)
     raise UsageError(
         f"--step {step:g} leaves a lattice of {' x '.join(map(str, counts))} value(s) in the box, so every "
-        f"point lies on one line and no surface can be built; use a step of at most {sides[1]:g}, the "
+        f"point lies on one line and no surface can be built; use a step of at most {sides[1]!r}, the "
         "box's second-longest side"
     )
 
