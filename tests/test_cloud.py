@@ -181,3 +181,10 @@ def test_text_is_refused_from_any_array_like_and_other_shapes_keep_their_errors(
             as_cloud(points)
     with pytest.raises(InputError, match=r"must have shape \(n, 3\), got shape \(3,\)"):
         as_cloud(pd.Series([1.0, 2.0, 3.0]))  # (a Series was a TypeError of the text check)
+
+
+def test_an_empty_text_array_is_called_empty():
+    from replication.surfaces.cloud import as_cloud
+
+    with pytest.raises(InputError, match="points is empty: no points"):
+        as_cloud(np.zeros((0, 3), dtype="U1"))

@@ -510,9 +510,9 @@ def test_a_percent_header_is_found_among_percent_comments(tmp_path, text):
 @pytest.mark.parametrize(
     ("text", "match"),
     [
-        ("% z x y\n% x is east\n1 2 3\n", r"lines 1 \('% z x y'\) and 2 \('% x is east'\) both name"),
-        ("% Export\n% Columns: z x y\n1 2 3\n", r"names the axes x, y, z among 4 words separated by spaces"),
-        ("Columns: z x y\n1 2 3\n", r"names the axes x, y, z among 4 words"),  # was: read in file order
+        ("% z x y\n% x y z\n1 2 3\n", r"lines 1 \('% z x y'\) and 2 \('% x y z'\) both name"),
+        ("% Export\n% Columns: z x y\n1 2 3\n", r"names the axes z, x, y in that order among 4 names"),
+        ("Columns: z x y\n1 2 3\n", r"names the axes z, x, y in that order"),  # was: read in file order
     ],
 )
 def test_headers_whose_columns_cannot_be_told_are_refused(tmp_path, text, match):
@@ -1431,3 +1431,37 @@ def test_headers_of_three_columns_that_split_oddly_still_load(tmp_path, header, 
     said = [str(w.message) for w in caught]
     expected = [] if warned is None else [f"the header {warned} names none"]
     assert len(said) == len(expected) and all(text in said[0] for text in expected)
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("% exported\n0,1,2\n3,4,5\n", [[0, 1, 2], [3, 4, 5]]),  # a commented file: 0,1,2 is a point
+        ("X Coord Y Coord Z Coord\n1 2 3\n", [[1, 2, 3]]),  # axes named in file order, among more words
+        ("Point X Y Z\n1 2 3\n", [[1, 2, 3]]),
+        ("%% z x y\n1 2 3\n", [[2, 3, 1]]),  # MATLAB's cell mark
+        ("%\tz\tx\ty\n1\t2\t3\n", [[2, 3, 1]]),
+        ("% z x y\neast,north,up\n1,2,3\n", [[2, 3, 1]]),  # as '# z x y' above a label header
+        ("% Z-scan data\n% x y z\n1 2 3\n", [[1, 2, 3]]),  # the line naming all three is the header
+        ("% z,x,y\n% x-ray tube 3\n1,2,3\n", [[2, 3, 1]]),
+    ],
+)
+def test_percent_comments_and_headers_of_more_words_read_as_they_say(tmp_path, text, expected):
+    (tmp_path / "c.csv").write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CloudFileWarning)
+        np.testing.assert_array_equal(load_cloud(tmp_path / "c.csv"), expected)
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("% z x y\nx,y,z\n1,2,3\n", r"the comment z, x, y and the header x, y, z name the columns"),
+        ("z;x;y;w\n1;2;3\n", r"names the axes z, x, y in that order among 4 names"),
+        (",lat,z\n0,1.5,2.5\n1,3.5,4.5\n", r"names one axis, and its column 1 \(''\) is pandas' row index"),
+    ],
+)
+def test_percent_headers_contradicting_a_header_and_row_indexes_are_refused(tmp_path, text, match):
+    (tmp_path / "c.csv").write_text(text)
+    with pytest.raises(CloudFileError, match=match):
+        load_cloud(tmp_path / "c.csv")

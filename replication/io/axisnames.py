@@ -72,6 +72,13 @@ def axis_order(path: Path, tokens: list[str], *, what: str = "header") -> list[i
     named = [name for name in names if name in ("x", "y", "z")]
     distinct = len(set(named)) == len(named)
     if distinct and all(names[k] == axis for k, axis in enumerate("xyz") if axis in names):
+        index = next((k for k in range(3) if names[k] not in named and _row_index(tokens[k])), -1)
+        if len(named) == 1 and index >= 0:  # (",lat,z": to_csv of a two-column frame, its index as x)
+            raise CloudFileError(
+                f"{path}: the {what} {quoted_names(tokens)} {verb} one axis, and its {column} {index + 1} "
+                f"({tokens[index].strip()!r}) is pandas' row index, not an axis: {drop}, or name the "
+                f"{column}s x, y and z"
+            )
         return None  # no axis named, or each in its own column: their order
     if distinct and len(named) >= 2:  # the column not named is the axis not named
         unnamed = next((k for k in range(3) if names[k] not in named), -1)  # -1: all three named

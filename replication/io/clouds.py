@@ -96,8 +96,10 @@ def _without_percent_comments(
     Of the ``%`` lines above the first data line (with no header line between them and the
     data), one that names an axis or three columns (``% z x y``, ``% depth,x,y``, ``% east
     north height``) is the header, as it would be directly above the data; when several
-    could be, the one naming an axis is, and two naming axes are refused (which is the
-    header cannot be told). Every other ``%`` line is a comment. A first line ``% exported
+    could be, the one naming an axis is (of those, the one naming all three), and two such
+    are refused (which is the header cannot be told). Every other ``%`` line is a comment;
+    one naming all three axes above a header line is a comment header, as ``# z x y`` is
+    (:func:`_comment_header`). A first line ``% exported
     2026-11-25`` above a header ``x,y,z`` was taken for the header, and the file refused at
     "line 2, column 1: 'x' is not a number".
     """
@@ -111,6 +113,8 @@ def _without_percent_comments(
                 candidates.append(k)
     if len(candidates) > 1:
         naming = [k for k in candidates if _names_an_axis(_header_tokens(numbered[k][1]))]
+        every = [k for k in naming if _names_every_axis(_header_tokens(numbered[k][1]))]
+        naming = every if len(every) == 1 else naming  # ("% x-ray source" beside "% z x y")
         if len(naming) > 1:
             shown_lines = " and ".join(f"{numbered[k][0]} ({numbered[k][1].strip()!r})" for k in naming[:2])
             raise CloudFileError(
@@ -126,6 +130,10 @@ def _without_percent_comments(
 
 def _names_an_axis(names: list[str]) -> bool:
     return any(axis_name(name) in ("x", "y", "z") for name in names)
+
+
+def _names_every_axis(names: list[str]) -> bool:
+    return len(names) == 3 and sorted(axis_name(name) for name in names) == ["x", "y", "z"]
 
 
 def _is_data_line(line: str) -> bool:
@@ -156,7 +164,10 @@ def _unquoted(line: str) -> str:
 def _header_count(line: str) -> int | None:
     """How many columns a header line names, when its separator says so: commas (with CSV
     quoting) or tabs; None for names separated by spaces, which may hold spaces themselves
-    (``x [mm]``). A separator at the end of the line ("x,y,z,") names no further column."""
+    (``x [mm]``). A separator at the end of the line ("x,y,z,") names no further column, and
+    leading ``%`` signs name none ("%\tz\tx\ty" names three)."""
+    if line.lstrip().startswith("%"):
+        line = line.lstrip().lstrip("%").lstrip(" \t")
     for sep in (",", "\t"):
         if sep in line:
             names = next(csv.reader([line], delimiter=sep))
@@ -225,10 +236,10 @@ def _comment_header(path: Path, lines: list[str], first_data: int) -> tuple[list
     column order it gives (``[0, 1, 2]`` when it lists x, y, z in order). Other comments are
     comments."""
     above = next((line.strip() for line in reversed(lines[: first_data - 1]) if line.strip()), "")
-    if not above.startswith("#"):  # (blank lines between it and the data do not matter)
+    if not above.startswith(("#", "%")):  # (blank lines between it and the data do not matter)
         return None
-    tokens = _header_tokens(above[1:])
-    if len(tokens) != 3 or sorted(axis_name(t) for t in tokens) != ["x", "y", "z"]:
+    tokens = _header_tokens(above.lstrip("#%"))
+    if not _names_every_axis(tokens):
         return None
     return tokens, axis_order(path, tokens) or [0, 1, 2]
 
@@ -242,7 +253,7 @@ def _header_tokens(text: str) -> list[str]:
     the columns read in file order). Without a comma, a tab separates the names when there is
     one, else ``;`` (``# z;y;x``). A leading ``%`` (a MATLAB/Octave comment sign) is not a name.
     """
-    text = text.strip().removeprefix("%")
+    text = text.strip().lstrip("%")  # ("%% z x y": MATLAB's cell marks are comment signs too)
     if "," in text:
         try:
             names = [name.strip() for name in next(csv.reader([text], skipinitialspace=True, strict=True))]
@@ -286,9 +297,16 @@ def _load_text(path: Path) -> np.ndarray:
     # delimiter are decided on the data alone ("1 2 3 # first, in mm" was taken for a header
     # because of its comma, and the point was dropped without a word)
     numbered = [(i, data) for i, line in enumerate(lines, start=1) if (data := line.split("#", 1)[0]).strip()]
+    percent_above = False  # a '%' comment above the first line: the file has comments
     if "%" in text:
         numbered, dropped = _without_percent_comments(path, numbered)
-        lines = ["" if number in dropped else line for number, line in enumerate(lines, start=1)]
+        percent_above = bool(numbered) and any(number < numbered[0][0] for number in dropped)
+        # a dropped '%' line naming the three axes stays, for _comment_header, as a '#' one does
+        # ("% z x y" above a header "x,y,z" was passed over, and the contradiction with it)
+        lines = [
+            "" if number in dropped and not _names_every_axis(_header_tokens(line)) else line
+            for number, line in enumerate(lines, start=1)
+        ]
     if not numbered:
         raise CloudFileError(f"{path}: the file is empty (no data lines)")
     first_comma = "," in numbered[0][1]
@@ -317,13 +335,14 @@ def _load_text(path: Path) -> np.ndarray:
                 "has 3 (x, y, z): name the file's three columns, or give no header"
                 + ("; its first column is pandas' row index: save with to_csv(index=False)" if index else "")
             )
-        axes_named = sorted({axis_name(t) for t in first_tokens} & {"x", "y", "z"})
-        if counted is None and len(first_tokens) != 3 and len(axes_named) >= 2:
-            # ("Columns: z x y" was read in file order, its names unread: four words, not three)
+        in_order = [a for a in (axis_name(t) for t in first_tokens) if a in ("x", "y", "z")]
+        if counted is None and len(first_tokens) != 3 and len(in_order) >= 2 and in_order != sorted(in_order):
+            # "Columns: z x y" was read in file order, its names unread (four words, not three);
+            # "X Coord Y Coord Z Coord" names them in file order, which is how it is read
             raise CloudFileError(
-                f"{path}: the header {quoted_names(first_tokens)} names the axes {', '.join(axes_named)} "
-                f"among {len(first_tokens)} words separated by spaces, so which column is which cannot be "
-                "told: write it as three names (such as 'z x y'), or separate the names by commas"
+                f"{path}: the header {quoted_names(first_tokens)} names the axes {', '.join(in_order)} in "
+                f"that order among {len(first_tokens)} names, so which column is which cannot be told: "
+                "write it as three names (such as 'z x y'), or separate the names by commas"
             )
         named = axis_order(path, first_tokens) or [0, 1, 2]
         labels = not any(axis_name(t) in ("x", "y", "z") for t in first_tokens)
@@ -346,8 +365,10 @@ def _load_text(path: Path) -> np.ndarray:
                     "is right"
                 )
             header, order = first_tokens, named
-    elif [t.strip().strip('"').strip() for t in first_tokens] == ["0", "1", "2"] and "#" not in "".join(
-        lines[: numbered[0][0]]
+    elif (
+        [t.strip().strip('"').strip() for t in first_tokens] == ["0", "1", "2"]
+        and "#" not in "".join(lines[: numbered[0][0]])
+        and not percent_above
     ):
         # pandas writes no comments: "# x y z" above it (save_cloud's .txt) or "0,1,2 # the
         # first point" says the line is a point

@@ -269,8 +269,10 @@ def _refuse_text(arr: np.ndarray, name: str) -> None:
     :func:`~replication.io.load_cloud` refuse them, so one cloud gave other points in memory
     than from its file. Text arrays, and object arrays (a DataFrame's text columns, as numpy
     converts them) holding a string, are refused."""
+    if arr.size == 0:  # (no text to convert: the shape's or emptiness' error says what is wrong)
+        return
     if arr.dtype.kind in "US":
-        text = arr.ravel()[0] if arr.size else ""
+        text = arr.ravel()[0]
     elif arr.dtype.kind == "O":
         values = arr.ravel().tolist()
         if not any(issubclass(kind, (str, bytes)) for kind in set(map(type, values))):
