@@ -105,15 +105,14 @@ def _without_percent_comments(
     """
     is_percent = [data.lstrip().startswith("%") for _, data in numbered]
     first = next((k for k, percent in enumerate(is_percent) if not percent), len(numbered))
-    candidates: list[int] = []
+    names: dict[int, list[str]] = {}  # the % lines above the data that could be the header
     if first < len(numbered) and _is_data_line(numbered[first][1]):  # no header line below them
-        for k in range(first):
-            names = _header_tokens(numbered[k][1])
-            if len(names) == 3 or _names_an_axis(names):
-                candidates.append(k)
+        names = {k: _header_tokens(numbered[k][1]) for k in range(first)}
+        names = {k: n for k, n in names.items() if len(n) == 3 or _names_an_axis(n)}
+    candidates = list(names)
     if len(candidates) > 1:
-        naming = [k for k in candidates if _names_an_axis(_header_tokens(numbered[k][1]))]
-        every = [k for k in naming if _names_every_axis(_header_tokens(numbered[k][1]))]
+        naming = [k for k in candidates if _names_an_axis(names[k])]
+        every = [k for k in naming if _names_every_axis(names[k])]
         naming = every if len(every) == 1 else naming  # ("% x-ray source" beside "% z x y")
         if len(naming) > 1:
             shown_lines = " and ".join(f"{numbered[k][0]} ({numbered[k][1].strip()!r})" for k in naming[:2])
@@ -345,7 +344,7 @@ def _load_text(path: Path) -> np.ndarray:
                 "write it as three names (such as 'z x y'), or separate the names by commas"
             )
         named = axis_order(path, first_tokens) or [0, 1, 2]
-        labels = not any(axis_name(t) in ("x", "y", "z") for t in first_tokens)
+        labels = not _names_an_axis(first_tokens)
         if labels and commented is None:  # ("py,px,pz" or "lat,lon,alt": which axis is which is a guess)
             warnings.warn(
                 f"{path}: the header {quoted_names(first_tokens)} names none of the axes x, y and z, so its "
