@@ -204,7 +204,8 @@ def test_casestudy_rescore_runs_end_to_end_and_resumes_from_the_cache(
     assert not any(r["cached"] for r in first["rescore"]) and CALLS
     simulated = len(CALLS)  # the cost ahead is counted before the first simulation, then counted down
     assert (
-        f"SPH re-scoring: {simulated} distinct surfaces, 0 from the cache, {simulated} to simulate\n" in err
+        f"SPH re-scoring: {simulated} distinct surfaces, 0 from the cache, {simulated} to simulate, "
+        "1 at a time\n" in err  # the serial executor's one
     )
     assert f"; 1/{simulated}, about " in err and f"; {simulated}/{simulated}, the last)" in err
     report = (tmp_path / "out" / "casestudy.md").read_text()
@@ -309,14 +310,14 @@ def test_a_rescore_that_judged_only_the_reference_shapes_exits_1():
 
 
 def test_rescore_progress_counts_down_at_the_measured_rate(tmp_path, capsys):
-    from replication.casestudy.sph_batch import Scored
+    from replication.casestudy.sph_batch import Plan, Scored
     from replication.cli.casestudy_sph import RescoreProgress
 
     now = [100.0]
-    progress = RescoreProgress(workers=2, clock=lambda: now[0])
+    progress = RescoreProgress(clock=lambda: now[0])
     ok = fake_sph(flat_plate_cloud(12), None, CONFIG.jet, SETTINGS, timeout=1, run_dir=tmp_path)
     blown = dataclasses.replace(ok, status="blowup", reason="runaway")
-    progress.plan(1, 5)
+    progress.plan(Plan(1, 0, 5, 2))  # two at once: the executor's workers, a cluster's too
     progress(Scored("flat plate", "k", "ok", None, ok, True, None))
     now[0] += 600.0  # two at once: the first two end 10 min in, then three more two at a time
     progress(Scored("GA run 0 #1", "k", "ok", None, ok, False, None))  # its partner ends now too
@@ -327,13 +328,25 @@ def test_rescore_progress_counts_down_at_the_measured_rate(tmp_path, capsys):
     now[0] += 600.0
     progress(Scored("GA run 0 #5", "k", "ok", None, ok, False, None))
     assert capsys.readouterr().err.splitlines() == [
-        "SPH re-scoring: 6 distinct surfaces, 1 from the cache, 5 to simulate",
+        "SPH re-scoring: 6 distinct surfaces, 1 from the cache, 5 to simulate, 2 at a time",
         "SPH flat plate: 13 N (cache)",
         "SPH GA run 0 #1: 13 N (simulated in 0.0 s; 1/5, about 15 min left)",  # 3 x 10 min / 2
         "SPH GA run 0 #2: blowup: runaway (ended after 0.0 s; 2/5, about 15 min left)",
         "SPH GA run 0 #3: error: a dead worker (3/5, about 13 min left)",  # 2 x 20 min / 3
         "SPH GA run 0 #4: 13 N (simulated in 0.0 s; 4/5, about 5 min left)",
         "SPH GA run 0 #5: 13 N (simulated in 0.0 s; 5/5, the last)",
+    ]
+
+
+def test_rescore_progress_says_what_is_missing_from_the_cache_and_that_nothing_runs(capsys):
+    from replication.casestudy.sph_batch import Plan
+    from replication.cli.casestudy_sph import RescoreProgress
+
+    RescoreProgress().plan(Plan(2, 1, 0, 0))
+    RescoreProgress().plan(Plan(0, 0, 3, 3))
+    assert capsys.readouterr().err.splitlines() == [
+        "SPH re-scoring: 3 distinct surfaces, 2 from the cache, 1 missing from it, 0 to simulate",
+        "SPH re-scoring: 3 distinct surfaces, 0 from the cache, 3 to simulate, 3 at a time",
     ]
 
 
@@ -500,6 +513,37 @@ def test_solver_sph_prints_its_estimate_and_refuses_more_than_an_hour_without_ye
     assert main(args) == 1
     err = capsys.readouterr().err
     assert "1e+03 s per simulation x at most 12 evaluations / 1 worker(s) = at most 3.33 h" in err
+    assert "exceeds 1 h: pass --yes" in err and not (tmp_path / "run" / "run-0.json").exists()
+
+
+def test_solver_sph_on_a_named_cluster_estimates_with_the_cluster_s_threads(
+    tmp_path, monkeypatch, capsys, fake_engine, port_8787_taken
+):
+    """With --scheduler the estimate divided by 1 worker (the command could not know the
+    cluster's size), and asked for --yes when a cluster of several would finish within the hour."""
+    distributed = pytest.importorskip("distributed")
+    monkeypatch.chdir(tmp_path)
+    import replication.casestudy.sph_fitness as sph_fitness
+
+    real = sph_fitness.estimate
+
+    def slow(fitness, *, workers):  # one simulation measured at 1000 s
+        e = real(fitness, workers=workers)
+        return sph_fitness.Estimate(1000.0, e.evaluations, e.workers, e.cached)
+
+    monkeypatch.setattr(sph_fitness, "estimate", slow)
+    args = [*TINY[:-2], "--run-dir", "run", "--solver", "sph", "--particle-radius", "1", "--duration", "16",
+            "--cache-dir", "cache"]  # fmt: skip
+    with distributed.LocalCluster(
+        n_workers=1,
+        threads_per_worker=3,
+        processes=False,
+        dashboard_address="127.0.0.1:0",
+        scheduler_kwargs={"dashboard": False},
+    ) as cluster:
+        assert main([*args, "--scheduler", cluster.scheduler_address]) == 1
+    err = capsys.readouterr().err
+    assert "1e+03 s per simulation x at most 12 evaluations / 3 worker(s) = at most 1.11 h" in err
     assert "exceeds 1 h: pass --yes" in err and not (tmp_path / "run" / "run-0.json").exists()
 
 

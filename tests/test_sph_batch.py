@@ -17,6 +17,7 @@ import pytest
 from replication.casestudy import JetConfig, flat_plate_cloud, sph_batch
 from replication.casestudy.sph import SPHSettings
 from replication.casestudy.sph_batch import (
+    Plan,
     Scored,
     SurfaceTask,
     cache_key,
@@ -132,6 +133,18 @@ def test_without_simulating_a_missing_surface_is_reported_missing(tmp_path):
     CALLS.clear()
     scored = score([plate(1), plate(2)], tmp_path, simulate_missing=False)
     assert [s.status for s in scored] == ["ok", "missing"] and CALLS == []
+
+
+def test_the_plan_counts_cached_missing_and_to_simulate_apart(tmp_path):
+    """The plan said "N from the cache" of surfaces that were missing from it (not simulated
+    without simulate_missing); it now counts them apart, and says how many run at once."""
+    plans = []
+    score([plate(1)], tmp_path, on_plan=plans.append)
+    score([plate(1), plate(2), plate(2)], tmp_path, simulate_missing=False, on_plan=plans.append)
+    score([plate(h) for h in range(1, 6)], tmp_path, max_parallel=2, on_plan=plans.append)
+    score([plate(1), plate(9)], tmp_path, max_parallel=4, on_plan=plans.append)
+    assert plans == [Plan(0, 0, 1, 1), Plan(1, 1, 0, 0), Plan(1, 0, 4, 2), Plan(1, 0, 1, 1)]
+    assert [p.distinct for p in plans] == [1, 2, 5, 2]
 
 
 def test_at_most_max_parallel_simulations_run_at_once(tmp_path):

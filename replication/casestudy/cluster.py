@@ -38,6 +38,7 @@ __all__ = [
     "CONNECT_TIMEOUT_S",
     "check_scheduler_address",
     "check_scheduler_reachable",
+    "cluster_threads",
     "dask_executor",
     "require_dask",
 ]
@@ -106,6 +107,21 @@ def check_scheduler_reachable(scheduler: str) -> str:
                 "the address right?"
             ) from exc
     return address
+
+
+def cluster_threads(scheduler: str) -> int:
+    """The tasks the dask cluster at ``scheduler`` runs at once now: its workers' threads (>= 1).
+
+    Raises
+    ------
+    ExecutorError
+        No dask scheduler answers at ``scheduler``.
+    """
+    client = _connect(scheduler)
+    try:
+        return max(1, sum(client.nthreads().values()))
+    finally:
+        client.close()
 
 
 def _connect(scheduler: str):  # type: ignore[no-untyped-def]

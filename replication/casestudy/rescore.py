@@ -159,7 +159,7 @@ def rescore_runs(
     workers: int = 1,
     on_result: Callable[[Any], None] | None = None,
     simulate: Callable[..., Any] | None = None,
-    on_plan: Callable[[int, int], None] | None = None,
+    on_plan: Callable[[Any], None] | None = None,
 ) -> RescoreResults:
     """SPH scores of the ``rescore.top`` best distinct surfaces of each run and of the references.
 
@@ -179,8 +179,8 @@ def rescore_runs(
     simulate : callable, optional
         Replaces :func:`~.sph.sph_force` (tests).
     on_plan : callable, optional
-        Called before any simulation with the numbers of distinct surfaces read from the cache
-        and to be simulated (see :func:`~.sph_batch.score_surfaces`).
+        Called before any simulation with the :class:`~.sph_batch.Plan`: the distinct
+        surfaces read from the cache and to be simulated, and how many at once.
 
     Returns
     -------

@@ -46,6 +46,7 @@ __all__ = [
     "CACHE_ENV",
     "DEFAULT_CACHE_DIR",
     "default_cache_dir",
+    "Plan",
     "Scored",
     "SurfaceTask",
     "cache_key",
@@ -112,6 +113,25 @@ class SurfaceTask:
         if surface.depth_axis != 2:
             raise InputError(f"surface {name!r}: the jet needs a height field over x-y (depth axis z)")
         return cls(name, surface.points, surface.triangles)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What :func:`score_surfaces` will do, known once the cache is read (before any simulation).
+
+    Counts of distinct surfaces: read from the cache (``cached``, failed simulations
+    included), absent from it when simulating is not allowed (``missing``), and to be
+    simulated (``to_simulate``), of which ``at_once`` run at a time.
+    """
+
+    cached: int
+    missing: int
+    to_simulate: int
+    at_once: int
+
+    @property
+    def distinct(self) -> int:
+        return self.cached + self.missing + self.to_simulate
 
 
 @dataclass(frozen=True, eq=False)
@@ -298,7 +318,7 @@ def score_surfaces(
     simulate_missing: bool = True,
     on_result: Callable[[Scored], None] | None = None,
     simulate: Callable[..., Any] | None = None,
-    on_plan: Callable[[int, int], None] | None = None,
+    on_plan: Callable[[Plan], None] | None = None,
 ) -> list[Scored]:
     """SPH scores of surfaces, from the cache where it has them, else simulated on ``executor``.
 
@@ -328,8 +348,8 @@ def score_surfaces(
         Replaces :func:`~.sph.sph_force` (same signature; picklable by reference): for tests.
     on_plan : callable, optional
         Called once the cache is read, before ``on_result`` is called for any surface, with
-        the numbers of distinct surfaces not to be simulated (read from the cache, or
-        "missing" when simulating is not allowed) and to be simulated (a cost estimate).
+        the :class:`Plan`: the distinct surfaces read from the cache, missing from it, and to
+        be simulated, and how many run at once (a cost estimate).
 
     Returns
     -------
@@ -375,7 +395,8 @@ def score_surfaces(
         else:
             given[key] = Scored(task.name, key, "missing", "not in the SPH cache", None, False, None)
     if on_plan is not None:
-        on_plan(len(given), len(todo))
+        missing = sum(s.status == "missing" for s in given.values())
+        on_plan(Plan(len(given) - missing, missing, len(todo), min(max_parallel, len(todo))))
     for scored in given.values():
         record(scored)
     if todo:

@@ -298,7 +298,7 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
     pool = functools.partial(
         executor, args.executor, workers=args.workers, scheduler=args.scheduler, on_interrupt=on_interrupt
     )
-    fitness = sph_fitness(plan, args, workers=_workers(args))
+    fitness = sph_fitness(plan, args, workers=_estimate_workers(plan, args))
     # a second command on this directory is refused here, outside the try: its refusal removes nothing
     with hold(plan.run_dir):
         try:
@@ -316,7 +316,7 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
                 def tick(state: Any) -> None:
                     bar.update(1, run=state.run, best=f"{state.history[-1]['best_so_far']:.3f} N")
 
-                rescored = RescoreProgress(workers=_workers(args))
+                rescored = RescoreProgress()
                 results = run_casestudy(
                     config, run_dir=plan.run_dir, pool_factory=pool, resume=plan.resume, on_generation=tick,
                     command=args.invocation, quick=plan.quick, timing_repeats=20 if plan.quick else 100,
@@ -361,6 +361,17 @@ def _workers(args: argparse.Namespace) -> int:
     if args.executor == "serial" or (args.scheduler and not args.workers):
         return 1
     return args.workers or usable_cpus()
+
+
+def _estimate_workers(plan: Any, args: argparse.Namespace) -> int:
+    """The simulations at once of the ``--solver sph`` cost estimate: a named cluster's threads
+    as it stands (without ``--workers``, :func:`_workers` cannot know them and said 1, which
+    multiplied the estimate by the cluster's size and could ask for ``--yes`` for nothing)."""
+    if plan.solver is not None and args.scheduler and not args.workers:
+        from replication.casestudy.cluster import cluster_threads
+
+        return cluster_threads(args.scheduler)
+    return _workers(args)
 
 
 def _cmd_casestudy(args: argparse.Namespace) -> int:

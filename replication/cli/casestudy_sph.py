@@ -158,26 +158,30 @@ class RescoreProgress:
     """The progress of ``--rescore sph`` on stderr, with the cost still ahead.
 
     Once the cache is read (:meth:`plan`), one line says how many distinct surfaces are to be
-    simulated; then one line per re-scored surface, and after each simulation the time left.
-    The time left is the wall time since the plan per simulation finished, times those not
-    finished; until ``workers`` simulations (those started together) have finished, the
-    ones still running are taken to end now and the rest to run ``workers`` at a time.
+    simulated, and how many at a time (the executor's workers, a dask cluster's included);
+    then one line per re-scored surface, and after each simulation the time left. The time
+    left is the wall time since the plan per simulation finished, times those not finished;
+    until the simulations started together have finished, the ones still running are taken to
+    end now and the rest to run that many at a time.
     """
 
-    def __init__(self, workers: int = 1, clock: Callable[[], float] = time.monotonic) -> None:
-        self.workers = max(1, int(workers))
+    def __init__(self, clock: Callable[[], float] = time.monotonic) -> None:
         self.clock = clock
         self.started: float | None = None
         self.to_simulate = 0
+        self.at_once = 1
         self.simulated = 0
 
-    def plan(self, cached: int, to_simulate: int) -> None:
-        self.started, self.to_simulate = self.clock(), to_simulate
-        print(
-            f"SPH re-scoring: {cached + to_simulate} distinct surfaces, {cached} from the cache, "
-            f"{to_simulate} to simulate",
-            file=sys.stderr,
-        )
+    def plan(self, plan: Any) -> None:
+        """Called with the :class:`~replication.casestudy.sph_batch.Plan` once the cache is read."""
+        self.started, self.to_simulate, self.at_once = self.clock(), plan.to_simulate, max(1, plan.at_once)
+        parts = [f"{plan.cached} from the cache"]
+        if plan.missing:
+            parts.append(f"{plan.missing} missing from it")
+        parts.append(f"{plan.to_simulate} to simulate")
+        if plan.to_simulate:
+            parts[-1] += f", {self.at_once} at a time"
+        print(f"SPH re-scoring: {plan.distinct} distinct surfaces, {', '.join(parts)}", file=sys.stderr)
 
     def __call__(self, scored: Any) -> None:
         what = f"{scored.result.mean_axial:.4g} N" if scored.ok else f"{scored.status}: {scored.reason}"
@@ -192,7 +196,7 @@ class RescoreProgress:
             if self.started is not None and self.to_simulate:
                 left = self.to_simulate - self.simulated
                 elapsed = self.clock() - self.started
-                at_once = min(self.workers, self.to_simulate)
+                at_once = min(self.at_once, self.to_simulate)
                 if self.simulated < at_once:  # the first of a batch started together
                     seconds = (self.to_simulate - at_once) * elapsed / at_once
                 else:

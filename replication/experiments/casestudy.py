@@ -244,7 +244,7 @@ def run_casestudy(
     rescore: RescoreConfig | None = None,
     on_rescored: Callable[[Any], None] | None = None,
     simulate: Callable[..., Any] | None = None,
-    on_rescore_plan: Callable[[int, int], None] | None = None,
+    on_rescore_plan: Callable[[Any], None] | None = None,
     fitness: Callable[[np.ndarray], float] | None = None,
     solver: dict[str, Any] | None = None,
 ) -> CaseStudyResults:
@@ -274,8 +274,8 @@ def run_casestudy(
     on_rescored : callable, optional
         Called with each re-scored surface as it becomes known (progress display).
     on_rescore_plan : callable, optional
-        Called before the re-scoring's first simulation with the numbers of distinct surfaces
-        read from the SPH cache and to be simulated (the cost estimate).
+        Called before the re-scoring's first simulation with its
+        :class:`~replication.casestudy.sph_batch.Plan` (the cost estimate).
     simulate : callable, optional
         Replaces the SPH simulation (tests; see :func:`.sph_batch.score_surfaces`).
     fitness : callable, optional
