@@ -320,7 +320,12 @@ def test_the_committed_data_sets_match_the_checksums_their_saves_recorded():
     from replication.report.store import read_provenance
 
     data = ROOT / "reports" / "data"
-    for prefix, command in (("table1", "replication table1"), ("casestudy", "replication casestudy")):
+    for prefix, command in (
+        ("table1", "replication table1"),
+        ("casestudy", "replication casestudy"),
+        ("sph", "replication sph"),
+        ("jet_validation", "replication validate-jet"),  # recorded after its save, see the record
+    ):
         record = read_provenance(data, f"{prefix}_provenance.json", command)  # raises on a mismatch
         assert record["data_files"] and all(name.startswith(prefix) for name in record["data_files"])
 
