@@ -204,7 +204,7 @@ KERNELS: dict[str, Kernel] = {
     "nearest": Kernel(
         "replication.surfaces._walks",
         "_nearest",
-        (_CLOUD, _TRIANGLES, _TRIANGLES, _CLOUD, _INDEX, _INDEX, "int32[::1]"),
+        (_CLOUD, _TRIANGLES, _TRIANGLES, _CLOUD, _INDEX, "int32[::1]"),
         ("none",),
     ),
 }

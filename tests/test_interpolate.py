@@ -66,18 +66,19 @@ def test_nearest_vertex_outside_is_the_nearest_point(surface):
     np.testing.assert_array_equal(filled[outside], depth[nearest])  # continuous cloud: no ties
 
 
-def test_nearest_vertex_tie_takes_the_smallest_index():
-    """Lattice points at equal distance: the first of them in the cloud wins, from any start."""
+def test_nearest_vertex_tie_takes_the_lexicographically_first_point():
+    """Lattice points at equal distance: the first of them in (u, v) order wins, from any start
+    and however the points are numbered. It was the smallest index, i.e. the first row of the
+    cloud file: shuffling a lattice cloud's rows changed the NURBS grid outside the hull."""
     g = np.indices((6, 5)).reshape(2, -1).T.astype(float)
-    cloud = np.column_stack([g, np.arange(len(g), dtype=float)])
-    surface = adt(cloud, depth="z")
-    uv = surface.projected()
     queries = np.array([[-1.0, 2.5], [2.5, -3.0], [7.0, 1.5], [2.5, 6.0]])  # equidistant from two points
-    for start in range(surface.n_triangles):
-        near = nearest_vertices(uv, surface.triangles, surface.neighbors, queries, np.full(4, start))
-        d = ((uv[None, :, :] - queries[:, None, :]) ** 2).sum(-1)
-        expected = [int(np.flatnonzero(row == row.min()).min()) for row in d]
-        assert near.tolist() == expected
+    expected = [[-0.0, 2.0], [2.0, 0.0], [5.0, 1.0], [2.0, 4.0]]
+    for order in (np.arange(len(g)), np.arange(len(g))[::-1], np.random.default_rng(7).permutation(len(g))):
+        surface = adt(np.column_stack([g[order], np.arange(len(g), dtype=float)]), depth="z")
+        uv = surface.projected()
+        for start in range(surface.n_triangles):
+            near = nearest_vertices(uv, surface.triangles, surface.neighbors, queries, np.full(4, start))
+            assert uv[near].tolist() == expected
 
 
 def test_triangle_neighbors_of_any_mesh():
@@ -91,7 +92,7 @@ def test_triangle_neighbors_of_any_mesh():
 @pytest.mark.parametrize("step", [None, 1.0])
 def test_grid_depths_match_linear_interpolation_and_nearest_points(step):
     """The NURBS grid: linear interpolation inside the hull, the nearest point's depth outside
-    (the first of equally near points)."""
+    (of equally near points, the first in (u, v) order)."""
     from replication.surfaces.nurbs import grid_depths
 
     for seed in range(12):
@@ -106,7 +107,10 @@ def test_grid_depths_match_linear_interpolation_and_nearest_points(step):
         assert np.array_equal(grid.filled.ravel(), outside)
         np.testing.assert_allclose(grid.depth.ravel()[~outside], ref[~outside], rtol=1e-14, atol=1e-14)
         d = ((uv[None, :, :] - nodes[outside][:, None, :]) ** 2).sum(-1)
-        first = np.array([np.flatnonzero(row == row.min()).min() for row in d], dtype=int)
+        first = []
+        for row in d:
+            tied = np.flatnonzero(row == row.min())
+            first.append(tied[np.lexsort((uv[tied, 1], uv[tied, 0]))[0]])
         assert np.array_equal(grid.depth.ravel()[outside], depth[first])
 
 
@@ -123,7 +127,8 @@ def test_the_nearest_walks_refuse_start_triangles_they_cannot_read():
             nearest_vertices(uv, triangle, alone, [[5.0, 5.0]], start)
         with pytest.raises(ValueError, match="start"):
             fill_nearest(uv, triangle, alone, [[5.0, 5.0]], start)
-    assert nearest_vertices(uv, triangle, alone, [[5.0, 5.0]], [0]).tolist() == [1]
+    # (1, 0) and (0, 1) are equally near: the first in (u, v) order
+    assert nearest_vertices(uv, triangle, alone, [[5.0, 5.0]], [0]).tolist() == [2]
 
 
 def test_the_kernels_index_arrays_are_checked_not_read_out_of_bounds():
@@ -145,7 +150,6 @@ def test_the_kernels_index_arrays_are_checked_not_read_out_of_bounds():
         (lambda: locate(uv[:, :1], good, far), r"vertex positions must have shape \(n, 2\), got \(3, 1\)"),
         (lambda: nearest_vertices(uv, [[0, 1, 3]], alone, far, [0]), r"must lie in 0..2, got 0..3"),
         (lambda: fill_nearest(uv, good, [[5, -1, -1]], far, [0]), r"must lie in 0..0 or be negative, got 5"),
-        (lambda: fill_nearest(uv, good, alone, far, [0], ids=[0, 1]), r"ids must hold one number per vertex"),
         # int64 past int32 wrapped into range in the cast (2**32 + 1 became 1) before the check
         (lambda: interpolate_linear(uv, np.array([[0, 1, 2**32 + 1]]), np.zeros(3), q), r"fit in int32, got"),
         (lambda: nearest_vertices(uv, good, alone, far, np.array([2**32])), r"int32, got values 4294967296"),

@@ -132,11 +132,13 @@ def _ring(tri, nbr, t, v, around, where):
 
 
 @njit(cache=True, nogil=True)
-def _nearest(xy, tri, nbr, queries, start, ids, out):
+def _nearest(xy, tri, nbr, queries, start, out):
     """Nearest vertex of each query by a greedy walk on the triangulation from triangle ``start[i]``.
 
-    Among vertices at the same distance the one of smallest ``ids`` wins (they are connected
-    by Delaunay edges, so a search over them finds it).
+    Among vertices at the same distance the first in the lexicographic order of their
+    positions wins (smaller first coordinate, then smaller second): a rule of the point set
+    alone, so that the answer does not depend on how the vertices are numbered (a cloud
+    file's row order). They are connected by Delaunay edges, so a search over them finds it.
     """
     around = np.empty(2 * tri.shape[0] + 6, dtype=tri.dtype)
     where = np.empty(2 * tri.shape[0] + 6, dtype=tri.dtype)
@@ -166,7 +168,7 @@ def _nearest(xy, tri, nbr, queries, start, ids, out):
                 v = nv
                 t = nt
                 improved = True
-        # every vertex at the same (nearest) distance: take the smallest index
+        # every vertex at the same (nearest) distance: take the lexicographically smallest position
         n_seen = 1
         seen[0] = v
         top = 1
@@ -190,7 +192,7 @@ def _nearest(xy, tri, nbr, queries, start, ids, out):
                 todo[top] = w
                 todo_t[top] = where[k]
                 top += 1
-                if ids[w] < ids[answer]:
+                if xy[w, 0] < xy[answer, 0] or (xy[w, 0] == xy[answer, 0] and xy[w, 1] < xy[answer, 1]):
                     answer = w
         out[i] = answer
 

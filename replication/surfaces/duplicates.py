@@ -128,7 +128,9 @@ def merge_duplicates(
         Projected coordinates and depth coordinate of each point.
     policy : {"mean", "min", "max", "first", "raise"}
         How a group of points sharing (u, v) becomes one vertex: its depth is the mean,
-        minimum or maximum of the group's depths, or that of the first point of the group;
+        minimum or maximum of the group's depths (the mean summed in increasing order of
+        depth, so that it is the same bits in any row order), or that of the first point of
+        the group;
         ``"raise"`` refuses such clouds with an :class:`~replication.errors.InputError`.
     axis_names : tuple of str
         Names of (u, v, depth) for messages, e.g. ``("x", "y", "z")``.
@@ -183,7 +185,15 @@ def apply_policy(
         )
     depth = np.asarray(depth, dtype=np.float64)
     if policy == "mean":
-        merged = np.bincount(group, weights=depth, minlength=n_groups) / counts
+        # each group summed in the order of its depths, not of its rows: floating-point sums
+        # depend on their order, and a cloud file's row order must not move a vertex's depth
+        shared = np.flatnonzero(counts[group] > 1)
+        shared = shared[np.lexsort((depth[shared], group[shared]))]
+        merged = np.zeros(n_groups)
+        alone = np.flatnonzero(counts[group] == 1)
+        merged[group[alone]] = depth[alone]
+        merged += np.bincount(group[shared], weights=depth[shared], minlength=n_groups)
+        merged /= counts
     elif policy == "min":
         merged = np.full(n_groups, np.inf)
         np.minimum.at(merged, group, depth)

@@ -16,7 +16,9 @@ triangulator's half-edges); for other meshes :func:`triangle_neighbors` computes
 The nearest vertex of a query (outside the hull, for the NURBS grid) is found by a greedy
 walk on the Delaunay graph, which reaches the nearest vertex from any start (a vertex that is
 not the nearest always has a Delaunay neighbour closer to the query); among vertices at
-exactly the same distance the one of smallest index is taken.
+exactly the same distance the first in the lexicographic order of their positions is taken
+(smaller u, then smaller v), so the answer depends on the point set alone, not on the
+vertices' numbering (a cloud file's row order).
 """
 
 from __future__ import annotations
@@ -160,49 +162,44 @@ def fill_nearest(
     neighbors: np.ndarray,
     queries: np.ndarray,
     start: np.ndarray,
-    ids: np.ndarray | None = None,
 ) -> np.ndarray:
     """Nearest vertex of queries outside a Delaunay triangulation: a walk from a triangle
     ``start[i]`` near each query to the boundary, then the greedy walk of
-    :func:`nearest_vertices` (smallest index, or smallest ``ids``, among equally near
-    vertices)."""
+    :func:`nearest_vertices` (of equally near vertices, the lexicographically smallest)."""
     queries = frozen(np.asarray(queries, dtype=np.float64).reshape(-1, 2))
     xy = frozen(uv, np.float64)
     triangles, neighbors = _int32(triangles), _int32(neighbors)
     _check_mesh(xy, triangles, neighbors)
-    ids = _int32(np.arange(xy.shape[0])) if ids is None else _int32(ids)
-    if ids.shape != (xy.shape[0],):
-        raise InputError(f"ids must hold one number per vertex ({xy.shape[0]}), got shape {ids.shape}")
-    return _fill_nearest(xy, triangles, neighbors, queries, _int32(start), ids)
+    return _fill_nearest(xy, triangles, neighbors, queries, _int32(start))
 
 
-def _fill_nearest(xy, triangles, neighbors, queries, start, ids):
+def _fill_nearest(xy, triangles, neighbors, queries, start):
     """:func:`fill_nearest` without the checks of the mesh (the NURBS gridding's own arrays)."""
     xy, queries = frozen(xy, np.float64), frozen(queries, np.float64)
-    triangles, neighbors, start, ids = _int32(triangles), _int32(neighbors), _int32(start), _int32(ids)
+    triangles, neighbors, start = _int32(triangles), _int32(neighbors), _int32(start)
     left = np.empty(queries.shape[0], dtype=np.int32)
     _check_starts(start, queries.shape[0], triangles.shape[0])
     kernel("exits")(xy, triangles, neighbors, queries, start, left)
     if np.any(left < 0):
         raise ValueError("fill_nearest: a query lies inside the triangulation")
     out = np.empty(queries.shape[0], dtype=np.int32)
-    kernel("nearest")(xy, triangles, neighbors, queries, _int32(left), ids, out)
+    kernel("nearest")(xy, triangles, neighbors, queries, _int32(left), out)
     return out
 
 
 def nearest_vertices(
     uv: np.ndarray, triangles: np.ndarray, neighbors: np.ndarray, queries: np.ndarray, start: np.ndarray
 ) -> np.ndarray:
-    """Nearest vertex of each query (smallest index among equally near ones) on a Delaunay
-    triangulation, by a greedy walk from a triangle ``start[i]`` near each query."""
+    """Nearest vertex of each query on a Delaunay triangulation (of equally near ones, the
+    first in the lexicographic order of positions), by a greedy walk from a triangle
+    ``start[i]`` near each query."""
     queries = frozen(np.asarray(queries, dtype=np.float64).reshape(-1, 2))
     out = np.empty(queries.shape[0], dtype=np.int32)
     xy = frozen(uv, np.float64)
-    ids = _int32(np.arange(xy.shape[0]))
     triangles, start, neighbors = _int32(triangles), _int32(start), _int32(neighbors)
     _check_mesh(xy, triangles, neighbors)
     _check_starts(start, queries.shape[0], triangles.shape[0])
-    kernel("nearest")(xy, triangles, neighbors, queries, start, ids, out)
+    kernel("nearest")(xy, triangles, neighbors, queries, start, out)
     return out
 
 
@@ -247,11 +244,10 @@ def interpolate_linear(
         outside = np.flatnonzero(found < 0)
         if outside.size:
             near = np.empty(outside.size, dtype=np.int32)
-            ids = _int32(np.arange(xy.shape[0]))
             start = _int32(left[outside])
             if np.any(start < 0):  # a walk that did not leave through the boundary: not convex Delaunay
                 raise ValueError("nearest_outside needs a convex Delaunay triangulation: a query is outside "
                                  "but its walk did not reach the boundary")  # fmt: skip
-            kernel("nearest")(xy, triangles, nbr, frozen(queries[outside]), start, ids, near)
+            kernel("nearest")(xy, triangles, nbr, frozen(queries[outside]), start, near)
             out[outside] = values[near]
     return (found, out) if located else out

@@ -30,8 +30,9 @@ in every report):
   nodes. Node depths are the linear interpolation of the cloud, i.e. barycentric
   interpolation on its Delaunay triangulation (the ADT surface, with the same duplicate
   policy); nodes outside the cloud's convex hull, where linear interpolation is undefined,
-  take the depth of the **nearest** cloud point (of equally near points, the one of smallest
-  vertex index, i.e. the first in the cloud), and their number is reported.
+  take the depth of the **nearest** cloud point (of equally near points, the first in the
+  lexicographic order of their projections: smaller first coordinate, then smaller second,
+  a rule of the point set alone, as the triangulation's), and their number is reported.
 * **Knots.** Clamped: ``degree + 1`` zeros, uniform interior knots, ``degree + 1`` ones.
 * **Tessellation.** Building the surface includes evaluating it on a ``50 x 50`` grid of
   parameters (``tessellation``), with geomdl (the paper-faithful reference) or with the
@@ -166,12 +167,12 @@ class Grid:
 def grid_depths(surface: Surface, shape: tuple[int, int]) -> Grid:
     """Interpolate an ADT-triangulated cloud linearly onto a uniform grid over its bounding box.
 
-    Nodes outside the convex hull take the depth of the nearest vertex (the smallest vertex
-    index among equally near ones). The grid is filled triangle by triangle
-    (:mod:`._grid`), on the vertices relabelled in the triangulator's (spatially coherent)
-    order; the nearest vertex of an outside node is found by a walk on the surface's own
-    triangle adjacency from the triangle of the nearest inside node of its row, then a
-    greedy walk on the Delaunay triangulation (no k-d tree is built).
+    Nodes outside the convex hull take the depth of the nearest vertex (of equally near ones,
+    the first in the lexicographic order of (u, v), whatever the vertices' numbering). The
+    grid is filled triangle by triangle (:mod:`._grid`), on the vertices relabelled in the
+    triangulator's (spatially coherent) order; the nearest vertex of an outside node is found
+    by a walk on the surface's own triangle adjacency from the triangle of the nearest inside
+    node of its row, then a greedy walk on the Delaunay triangulation (no k-d tree is built).
     """
     from replication.surfaces._grid import raster, relabel
     from replication.surfaces.interpolate import _fill_nearest
@@ -191,7 +192,7 @@ def grid_depths(surface: Surface, shape: tuple[int, int]) -> Grid:
     if rows.size:
         start = _start_triangles(owner, rows, cols)
         queries = np.column_stack([u[rows], v[cols]])
-        nearest = _fill_nearest(xy, triangles, surface.neighbors, queries, start, order)
+        nearest = _fill_nearest(xy, triangles, surface.neighbors, queries, start)
         values[rows, cols] = depth[nearest]
     return Grid(u=_readonly(u), v=_readonly(v), depth=_readonly(values), filled=_readonly(outside))
 
