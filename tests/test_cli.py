@@ -331,6 +331,10 @@ def test_compare_says_when_the_tests_compare_rounding_noise(capsys, tmp_path):
     code, out, _ = run(capsys, "compare", str(tmp_path / "plane.csv"))
     assert code == 0 and "paper's verdict    similar (neither test rejects;" in out
     assert "float64 rounding of depths of range 1.8 and size 1.8 (up to 1.8e-12): the surfaces agree" in out
+    # the interval and d_z of the noise (an interval off 0, a "medium" d_z) are said to be its own
+    means = [line for line in out.splitlines() if line.startswith("  mean difference")]
+    assert len(means) == 2 and all(line.endswith(" (rounding noise)") for line in means), means
+    assert out.count("the mean difference, its interval and d_z below are those of the noise") == 2
     code, out, _ = run(capsys, "compare", str(tmp_path / "plane.csv"), "--json")
     r = json.loads(out)
     assert all(
@@ -548,6 +552,11 @@ def test_large_clouds_say_when_their_long_steps_start_and_end(capsys, tmp_path, 
     )
     code, _, err = run(capsys, "nurbs", "--random", "60")  # nothing written: no writing step
     assert code == 0 and "writing" not in err and err.count("\n") == 2
+    # was: 20 s of silence for `compare --random 1000000`; the JSON on stdout stays clean
+    code, out, err = run(capsys, "compare", "--random", "60", "--json")
+    comparing = "building both surfaces of 60 points and comparing their depths"
+    assert code == 0 and err.splitlines()[0] == f"{comparing} ..." and err.count("\n") == 2
+    assert err.splitlines()[1].startswith(f"{comparing}: done (") and json.loads(out)["points"] == 60
     monkeypatch.setattr(surfaces, "LARGE_CLOUD", 1)
     code, _, err = run(capsys, "adt", "--random", "2")  # a failed step: its error, no "done"
     assert (

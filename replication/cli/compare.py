@@ -42,7 +42,8 @@ def _format_stats(name: str, pairs: Any, st: Any) -> list[str]:
             f"  note               every deviation is at most {st.max_abs:.2g}, float64 rounding of depths "
             f"of range {st.depth_range:.4g} and size {st.magnitude:.4g} (up to {st.rounding_tolerance:.2g}): "
             "the surfaces agree, and both tests take rounding for no difference (on the raw noise the "
-            "paper's t-test rejects or not with the units)"
+            "paper's t-test rejects or not with the units); the mean difference, its interval and d_z "
+            "below are those of the noise"
         ]
 
     def reading(similar: bool) -> str:
@@ -62,7 +63,7 @@ def _format_stats(name: str, pairs: Any, st: Any) -> list[str]:
         f"  paper's verdict    {st.paper_verdict} ({why}; 'similar' needs both to fail to reject)",
         *rounding,
         f"  mean difference    {st.mean_difference:.4g} (ADT - NURBS; 95% CI {lo:.4g} to {hi:.4g}), "
-        f"Cohen's d_z {st.cohens_dz:.3g}",
+        f"Cohen's d_z {st.cohens_dz:.3g}" + (" (rounding noise)" if st.rounding_only else ""),
         f"  deviation          RMS {st.rms:.4g} ({st.rms_percent:.1f}% of depth range), "
         f"max {st.max_abs:.4g} ({st.max_abs_percent:.1f}%)",
         f"  normality          {st.normality_test} p = {st.normality_p:.3g} -> use the {st.recommended_test}",
@@ -72,6 +73,8 @@ def _format_stats(name: str, pairs: Any, st: Any) -> list[str]:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
+    from replication.cli.progress import stage
+    from replication.cli.surfaces import LARGE_CLOUD
     from replication.compare import compare
 
     check_outputs(args)
@@ -79,7 +82,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
         check_compare_samples(args.samples)
     with relay_warnings():
         cloud, source, meta = load_or_generate(args)
-        with about_the_input(args):
+        # 20 s at a million points: said as adt and nurbs say their long steps (stderr)
+        comparing = f"building both surfaces of {len(cloud):,} points and comparing their depths"
+        with about_the_input(args), stage(comparing, shown=len(cloud) >= LARGE_CLOUD):
             result = compare(
                 cloud,
                 degree=args.degree,
