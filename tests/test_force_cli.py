@@ -75,8 +75,11 @@ def test_json_keys_of_the_two_solvers_agree(capsys, bucket_csv, tmp_path, monkey
     )
     sph_json = json.loads(out)
     assert code == code_sph == 0 and sheet["solver"] == "sheet" and sph_json["solver"] == "sph"
-    shared = ["input", "vertices", "triangles", "points_merged", "jet", "momentum_flux_N"]
+    shared = ["input", "vertices", "triangles", "points_merged", "jet", "momentum_flux_N", "units"]
     assert {k: sheet[k] for k in shared} == {k: sph_json[k] for k in shared}
+    # unsuffixed keys are SI: the default particle radius, 0.75 mm, is 0.00075 there
+    assert sheet["units"].startswith("SI (m, s, kg, N)")
+    assert sph_json["settings"]["particle_radius"] == 0.00075
     assert sheet["jet"]["domain_mm"] == [36.0, 30.0, 13.0]
     for report in (sheet, sph_json):
         assert report["over_rho_q_v"] == pytest.approx(report["axial_force_N"] / report["momentum_flux_N"])

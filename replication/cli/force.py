@@ -204,7 +204,14 @@ def shared_report(
             ),
         },
         "momentum_flux_N": config.momentum_flux,
+        # the SPH result's own keys (settings.particle_radius, window, peak_time, time, ...) carry
+        # no suffix: the JSON said millimetres beside metres without a word
+        "units": UNITS,
     }
+
+
+#: What ``force --json`` says of its units.
+UNITS = "SI (m, s, kg, N) unless a key's suffix names the unit (_mm, _m_s, _kg_m3, _N)"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
