@@ -34,6 +34,10 @@ def test_adt_from_file_human_output(capsys, cloud_file, tmp_path):
     assert f"wrote {out_path}" in out and f"{out_path.stat().st_size:,} bytes" in out
     points, _ = read_surface(out_path)
     np.testing.assert_array_equal(points, load_cloud(cloud_file))
+    triangle = tmp_path / "one.csv"
+    triangle.write_text("x,y,z\n0,0,0\n1,0,1\n0,1,2\n")
+    code, out, _ = run(capsys, "adt", str(triangle))
+    assert code == 0 and "3 points -> 3 vertices, 1 triangle\n" in out  # was "1 triangles"
 
 
 def test_adt_json_is_one_object(capsys, cloud_file, tmp_path):

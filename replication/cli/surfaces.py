@@ -174,7 +174,7 @@ def _cmd_adt(args: argparse.Namespace) -> int:
         return 0
     print(
         f"ADT surface from {source}: {report['points']} points -> "
-        f"{report['vertices']} vertices, {report['triangles']} triangles"
+        f"{report['vertices']} vertices, {report['triangles']} triangle{'s' * (report['triangles'] != 1)}"
     )
     if args.split:
         state = (
