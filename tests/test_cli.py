@@ -530,12 +530,12 @@ def test_the_files_the_help_examples_name_can_be_made_as_the_help_says(tmp_path,
 
 def test_large_clouds_say_when_their_long_steps_start_and_end(capsys, tmp_path, monkeypatch):
     # was: 19 s of silence for `nurbs --random 1000000 -o big.json`, 7 s for a 2e6-point adt -o
-    import replication.cli.surfaces as surfaces
+    import replication.cli.progress as progress
 
     out_vtk, out_json = tmp_path / "s.vtk", tmp_path / "n.json"
     code, _, err = run(capsys, "adt", "--random", "60", "-o", str(out_vtk))
     assert code == 0 and err == ""  # a small cloud: nothing to wait for
-    monkeypatch.setattr(surfaces, "LARGE_CLOUD", 50)
+    monkeypatch.setattr(progress, "LARGE_CLOUD", 50)
     code, _, err = run(capsys, "adt", "--random", "60", "-o", str(tmp_path / "t.vtk"), "--save-cloud",
                        str(tmp_path / "t.csv"))  # fmt: skip
     lines = err.splitlines()
@@ -561,7 +561,7 @@ def test_large_clouds_say_when_their_long_steps_start_and_end(capsys, tmp_path, 
     comparing = "building both surfaces of 60 points and comparing their depths"
     assert code == 0 and err.splitlines()[0] == f"{comparing} ..." and err.count("\n") == 2
     assert err.splitlines()[1].startswith(f"{comparing}: done (") and json.loads(out)["points"] == 60
-    monkeypatch.setattr(surfaces, "LARGE_CLOUD", 1)
+    monkeypatch.setattr(progress, "LARGE_CLOUD", 1)
     code, _, err = run(capsys, "adt", "--random", "2")  # a failed step: its error, no "done"
     assert (
         code == 1 and "done" not in err and err.splitlines()[0] == "building the ADT surface of 2 points ..."

@@ -73,8 +73,8 @@ def _format_stats(name: str, pairs: Any, st: Any) -> list[str]:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
+    from replication.cli import progress
     from replication.cli.progress import stage
-    from replication.cli.surfaces import LARGE_CLOUD
     from replication.compare import compare
 
     check_outputs(args)
@@ -84,7 +84,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         cloud, source, meta = load_or_generate(args)
         # 20 s at a million points: said as adt and nurbs say their long steps (stderr)
         comparing = f"building both surfaces of {len(cloud):,} points and comparing their depths"
-        with about_the_input(args), stage(comparing, shown=len(cloud) >= LARGE_CLOUD):
+        with about_the_input(args), stage(comparing, shown=len(cloud) >= progress.LARGE_CLOUD):
             result = compare(
                 cloud,
                 degree=args.degree,

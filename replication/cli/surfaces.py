@@ -6,6 +6,7 @@ import argparse
 import time
 from typing import Any
 
+from replication.cli import progress
 from replication.cli.common import (
     about_the_input,
     add_cloud_source,
@@ -81,11 +82,6 @@ def _check_format_has_output(args: argparse.Namespace) -> None:
         raise UsageError(f"--format {args.format} applies only with -o OUT (a file to write)")
 
 
-#: From this many points on, adt and nurbs say when their long steps start and end (seconds:
-#: 7 s to write a 2e6-point surface as text, 19 s to fit and write a 1e6-point NURBS as JSON).
-LARGE_CLOUD = 250_000
-
-
 def _write_outputs(args: argparse.Namespace, write: Any, cloud: Any, meta: Any, *, large: bool) -> Any:
     """Write ``-o`` (``write``) and ``--save-cloud`` all or none, saying so for a large cloud."""
     names = [str(p) for p in (args.output, args.save_cloud) if p]
@@ -118,7 +114,7 @@ def _cmd_adt(args: argparse.Namespace) -> int:
     suffix_warning(args.output, args.format, SURFACE_KINDS)
     with relay_warnings():
         cloud, source, meta = load_or_generate(args)
-        large = len(cloud) >= LARGE_CLOUD
+        large = len(cloud) >= progress.LARGE_CLOUD
         startup_s = warm_up("adt", args)
         start = time.perf_counter()
         if split is not None:
@@ -217,7 +213,7 @@ def _cmd_nurbs(args: argparse.Namespace) -> int:
     check_tessellation(args.tessellation, args.evaluator)
     with relay_warnings():
         cloud, source, meta = load_or_generate(args)
-        large = len(cloud) >= LARGE_CLOUD
+        large = len(cloud) >= progress.LARGE_CLOUD
         startup_s = warm_up("nurbs", args)
         start = time.perf_counter()
         # geomdl, the reference, takes most of the time at a million points: say what is faster
