@@ -118,6 +118,23 @@ def test_duplicate_policies():
         np.testing.assert_array_equal(s.points[1:], cloud[[1, 2, 4]])
 
 
+@given(st.lists(st.floats(-1e3, 1e3, allow_nan=False), min_size=3, max_size=7), st.randoms())
+def test_a_merged_mean_has_the_same_bits_in_any_row_order(depths, random):
+    """Floating-point sums depend on their order: 0.1 + 0.2 + 0.7 and 0.7 + 0.2 + 0.1 differ in
+    the last bit, and the mean of a group of duplicates followed the file's rows."""
+    group = [[0.0, 0.0, d] for d in depths]
+    cloud = np.array([*group, [4, 0, 0.0], [0, 4, 0.0], [4, 4, 0.5]])
+    means = []
+    for _ in range(3):
+        rows = list(range(len(cloud)))
+        random.shuffle(rows)
+        with pytest.warns(DuplicatePointsWarning):
+            s = adt(cloud[rows], depth="z")
+        means.append(s.points[s.vertex_of_input[rows.index(0)], Z])
+    assert means[0] == means[1] == means[2]
+    assert means[0] == pytest.approx(sum(sorted(depths)) / len(depths), rel=1e-12, abs=1e-9)
+
+
 def test_duplicate_policy_raise_names_the_rows():
     cloud = np.array([[0, 0, 1.0], [4, 0, 0.0], [0, 4, 0.0], [0, 0, 3.0]])
     with pytest.raises(InputError, match=r"rows 0, 3"):

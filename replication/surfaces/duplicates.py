@@ -184,9 +184,12 @@ def apply_policy(
             "merge them"
         )
     depth = np.asarray(depth, dtype=np.float64)
-    if policy == "mean":
+    if policy == "mean" and counts.max() <= 2:  # a + b is b + a: no order to fix
+        merged = np.bincount(group, weights=depth, minlength=n_groups) / counts
+    elif policy == "mean":
         # each group summed in the order of its depths, not of its rows: floating-point sums
-        # depend on their order, and a cloud file's row order must not move a vertex's depth
+        # of three or more depend on their order, and a cloud file's row order must not move a
+        # vertex's depth
         shared = np.flatnonzero(counts[group] > 1)
         shared = shared[np.lexsort((depth[shared], group[shared]))]
         merged = np.zeros(n_groups)
