@@ -753,6 +753,40 @@ except KeyboardInterrupt:
     assert child.returncode == 130 and out.strip() == "left: 0", out
 
 
+def test_ctrl_c_as_a_worker_forks_leaves_no_worker_behind():
+    """Ctrl-C held while a worker forked was raised as its start() returned, before the pool
+    recorded the worker: the command said "interrupted", then its exit waited for that worker
+    for good (table1 --quick and reproduce --quick, SIGINT or SIGTERM a few seconds in)."""
+    script = """
+import concurrent.futures.process as P, multiprocessing, multiprocessing.process as MP, os, signal, sys
+from replication.casestudy.evaluate import executor
+start = MP.BaseProcess.start
+fired = []
+def interrupted_start(self):
+    worker = self._target is P._process_worker  # (start() drops the target)
+    start(self)
+    if worker and not fired:
+        fired.append(1)
+        os.kill(os.getpid(), signal.SIGINT)  # held until the worker has started
+MP.BaseProcess.start = interrupted_start
+try:
+    with executor("process", workers=2) as pool:
+        pool.submit(abs, -1).result()
+except KeyboardInterrupt:
+    print("left:", len(multiprocessing.active_children()), flush=True)
+    sys.exit(130)
+"""
+    with subprocess.Popen(
+        [sys.executable, "-c", script], stdout=subprocess.PIPE, text=True, start_new_session=True
+    ) as child:
+        try:
+            out, _ = child.communicate(timeout=60)
+        finally:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(child.pid, signal.SIGKILL)  # a hang's workers too
+    assert child.returncode == 130 and out.strip() == "left: 0", out
+
+
 def test_a_worker_terminated_while_it_starts_ends_without_a_traceback():
     """SIGTERM (for instance its killed parent's) while a worker ran its initializer raised
     SystemExit there, which concurrent.futures printed as "Exception in initializer" with a

@@ -326,8 +326,11 @@ def _shut_down(pool: cf.ProcessPoolExecutor, announce: Callable[[], None] | None
     # Ctrl-C inside the first submit, after a fork pool started its workers but before its
     # management thread: shutdown cannot reach them, and the interpreter's exit then waited for
     # them forever (a hang after "interrupted"). Such workers are ended after the shutdown.
+    from replication.casestudy.interrupts import workers_of
+
     unmanaged = getattr(pool, "_executor_manager_thread", None) is None
-    processes = list((getattr(pool, "_processes", None) or {}).values())
+    recorded = list((getattr(pool, "_processes", None) or {}).values())
+    processes = workers_of(pool)
     try:
         if announce is not None:
             announce()
@@ -335,8 +338,12 @@ def _shut_down(pool: cf.ProcessPoolExecutor, announce: Callable[[], None] | None
     except KeyboardInterrupt:
         _abandon(pool)
         raise
+    # a worker the pool never recorded (an interrupt as it started) waits for a call for good
+    stray = [p for p in processes if all(p is not r for r in recorded)]
     if unmanaged and processes:
         _end(processes)
+    elif stray:
+        _end(stray)
 
 
 def _abandon(pool: cf.ProcessPoolExecutor, grace: float = ABANDON_GRACE) -> None:
@@ -348,7 +355,9 @@ def _abandon(pool: cf.ProcessPoolExecutor, grace: float = ABANDON_GRACE) -> None
     ``shutdown`` is not called again: after an interrupted one, the pool's management thread
     may have closed its handles; it ends by itself once the workers are gone.
     """
-    processes = list((getattr(pool, "_processes", None) or {}).values())  # (3.14: terminate_workers())
+    from replication.casestudy.interrupts import workers_of
+
+    processes = workers_of(pool)  # (3.14: terminate_workers(), of the recorded ones)
     manager = getattr(pool, "_executor_manager_thread", None)
     with _cancelled_futures_quiet(manager):
         _end(processes, grace)

@@ -23,6 +23,7 @@ import threading
 import time
 from collections.abc import Iterator
 from types import FrameType
+from typing import Any
 
 from replication.sigterm import Terminated, handler_installed, terminating
 
@@ -34,6 +35,7 @@ __all__ = [
     "ignore_interrupts",
     "quiet_spawn_context",
     "quiet_worker_context",
+    "workers_of",
 ]
 
 
@@ -123,13 +125,24 @@ def _starting_a_child() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
+def _served_queue(process: multiprocessing.process.BaseProcess) -> Any:
+    """The call queue of the process pool whose worker ``process`` is to be (None for another
+    process), read before ``start()``, which drops the target and its arguments."""
+    from concurrent.futures import process as pools
+
+    target, args = getattr(process, "_target", None), getattr(process, "_args", ())
+    return args[0] if target is pools._process_worker and args else None
+
+
 class _QuietSpawnProcess(multiprocessing.context.SpawnProcess):
     def start(self) -> None:
         # the resource tracker, which a spawned child needs, is started first: starting it
         # unblocks both signals for a moment, and the child started then would not have them held
         multiprocessing.resource_tracker.ensure_running()
+        queue = _served_queue(self)
         with _starting_a_child():
             super().start()
+            self.pool_queue = queue  # before a held signal is raised: see workers_of
 
 
 class _QuietSpawnContext(multiprocessing.context.SpawnContext):
@@ -143,8 +156,31 @@ def quiet_spawn_context() -> multiprocessing.context.SpawnContext:
 
 class _QuietForkProcess(multiprocessing.context.ForkProcess):
     def start(self) -> None:
+        queue = _served_queue(self)
         with _starting_a_child():  # (multiprocessing flushes stdout and stderr before it forks)
             super().start()
+            self.pool_queue = queue  # before a held signal is raised: see workers_of
+
+
+def workers_of(pool: Any) -> list[multiprocessing.process.BaseProcess]:
+    """The live worker processes of a process pool started in this module's contexts, the ones
+    the pool has not recorded included.
+
+    A Ctrl-C or SIGTERM held while a worker forks is raised as its ``start()`` returns, before
+    the pool records the worker in ``_processes``: ending the recorded workers left that one
+    waiting for a call for good, and the interpreter's exit waiting for it (a hang after
+    "interrupted"). Each worker knows the pool's call queue (``pool_queue``, set in ``start``).
+    """
+    queue = getattr(pool, "_call_queue", None)
+    recorded = list((getattr(pool, "_processes", None) or {}).values())
+    if queue is None:
+        return recorded
+    stray = [
+        p
+        for p in multiprocessing.active_children()
+        if getattr(p, "pool_queue", None) is queue and all(p is not r for r in recorded)
+    ]
+    return recorded + stray
 
 
 class _QuietForkContext(multiprocessing.context.ForkContext):
