@@ -121,6 +121,40 @@ def test_the_paper_s_settings_and_other_directories_are_not_refused(tmp_path, mo
             check_not_committed(tmp_path / inside, ["--quick"])
 
 
+@pytest.mark.parametrize(
+    ("command", "linked"),
+    [
+        (["table1", "--quick"], "data"),
+        (["table1", "--quick"], "figures"),
+        (["table1", "--quick"], "data/table1_meshes"),
+        (["table1"], "data"),  # the paper's settings too: its pages here, its data there
+        (["casestudy", "--runs", "1", "--generations", "2", "--run-dir", "run"], "figures"),
+        (["report"], "data"),
+    ],
+)
+def test_a_subdirectory_linked_into_the_committed_reports_is_refused(
+    tmp_path, monkeypatch, capsys, command, linked
+):
+    """`table1 --quick --output-dir trial` with trial/data a link to reports/data replaced the
+    committed data set (and `report` then drew it into the committed pages and the README)."""
+    monkeypatch.chdir(tmp_path)
+    readme = _checkout(tmp_path)
+    committed = tmp_path / "reports" / linked
+    committed.mkdir(parents=True)
+    (committed / "kept.csv").write_text("x\n1\n")
+    trial = tmp_path / "trial" / linked
+    trial.parent.mkdir(parents=True, exist_ok=True)
+    trial.symlink_to(committed, target_is_directory=True)
+    assert main([*command, "--output-dir", "trial"]) == 2
+    err = capsys.readouterr().err
+    leads = f"--output-dir trial: its {linked}/ leads into {tmp_path / 'reports'}, a checkout's committed"
+    assert leads in err
+    assert len(err.splitlines()) == 1
+    assert [p.name for p in committed.iterdir()] == ["kept.csv"]
+    assert (tmp_path / "README.md").read_text() == readme
+    assert not (tmp_path / "run").exists()  # refused before the GA's run directory was made
+
+
 def test_resuming_keeps_the_run_s_own_destination(tmp_path, monkeypatch):
     from replication.casestudy.ga import GAConfig
     from replication.casestudy.runner import check_run_dir

@@ -54,6 +54,7 @@ from replication.cli.outputs import (
     DEFAULT_DIR,
     QUICK_DIR,
     check_not_committed,
+    check_subdirs_stay_out,
     finish_reports,
     missing_dirs,
     remove_unused_run_dir,
@@ -193,7 +194,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     from replication.casestudy.evaluate import check_executor_options
     from replication.casestudy.rundir import CONFIG_NAME, checkpoints, foreign_entries, read_config
     from replication.errors import InputError, UsageError
-    from replication.io.paths import check_report_dir, check_writable_dir, lookup
+    from replication.io.paths import REPORT_SUBDIRS, check_report_dir, check_writable_dir, lookup
     from replication.report.pages import check_pages, report_page_in
 
     check_executor_options(args.executor, args.workers, args.scheduler)
@@ -260,6 +261,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     if args.output_dir and default_out != Path(DEFAULT_DIR):
         check_not_committed(out, _custom_settings(config, bool(args.quick), sph_option))
     what = "--output-dir" if args.output_dir else "the reports directory"
+    check_subdirs_stay_out(out, what, REPORT_SUBDIRS)
     check_report_dir(out, what)
     check_pages(out, what, ("casestudy.md", "index.md"))
     from replication.io.locks import hold_reports_dir

@@ -32,6 +32,7 @@ __all__ = [
     "QUICK_DIR",
     "TABLE1_SUBDIRS",
     "check_not_committed",
+    "check_subdirs_stay_out",
     "checkout_readme",
     "finish_reports",
     "missing_dirs",
@@ -65,6 +66,7 @@ def planned_output_dir(
     if explicit:
         check_not_committed(out, [*(["--quick"] if quick else []), *custom])
     what = "--output-dir" if explicit else "the reports directory"
+    check_subdirs_stay_out(out, what, subdirs)
     hold_reports_dir(out, what)
     check_report_dir(out, what, subdirs)
     check_pages(out, what, pages(out) if callable(pages) else pages)
@@ -123,6 +125,33 @@ def check_not_committed(out: str | Path, custom: Sequence[str]) -> None:
             f"paper's settings' results (and the README's headline numbers); a run with "
             f"{' and '.join(custom)} would replace them: name another directory"
         )
+
+
+def check_subdirs_stay_out(out: str | Path, what: str, subdirs: Sequence[str]) -> None:
+    """Refuse a reports directory one of whose ``subdirs`` leads, by a symbolic link, into a
+    checkout's committed reports while the directory itself is not those reports.
+
+    :func:`check_not_committed` looks at the directory named: ``--output-dir trial`` with
+    ``trial/data`` a link to ``reports/data`` let ``table1 --quick`` replace the committed data
+    set, which ``report`` then drew into the committed pages and the README.
+
+    Raises
+    ------
+    UsageError
+        A subdirectory resolves to, or into, a checkout's ``reports/``.
+    """
+    from replication.errors import UsageError
+
+    if checkout_readme(out) is not None:  # the committed reports themselves: checked as such
+        return
+    for name in subdirs:
+        resolved = (Path(out) / name).resolve()
+        for place in (resolved, *resolved.parents):
+            if checkout_readme(place) is not None:
+                raise UsageError(
+                    f"{what} {out}: its {name}/ leads into {place}, a checkout's committed reports, "
+                    f"so a run reporting into {out} would write there: name another directory"
+                )
 
 
 def finish_reports(out: Path) -> list[Path]:

@@ -24,6 +24,7 @@ from replication.cli.outputs import (
     QUICK_DIR,
     TABLE1_SUBDIRS,
     check_not_committed,
+    check_subdirs_stay_out,
     checkout_readme,
     finish_reports,
     planned_output_dir,
@@ -180,6 +181,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     # asv's results into its archive there; figures/ is written
     written_dirs = ("figures", "data") if results is not None else ("figures",)
     what = "--output-dir" if args.output_dir else "the reports directory"
+    check_subdirs_stay_out(out, what, ("figures", "data"))  # figures drawn, data read: one set
     check_report_dir(out, what, written_dirs)
     from replication.io.locks import hold_reports_dir
 
