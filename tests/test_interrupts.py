@@ -724,17 +724,16 @@ with hold({str(tmp_path / "run")!r}), executor("process", workers=2) as pool:
     assert _wait_for(free)
 
 
-def test_ctrl_c_as_a_fork_pool_starts_its_workers_does_not_hang():
-    """Ctrl-C inside the first submit, after the workers were forked but before the pool's
-    management thread: the command said "interrupted", then waited for them forever."""
-    script = """
-import concurrent.futures.process as P, multiprocessing, os, signal, sys
-from replication.casestudy.evaluate import executor
-launch = P.ProcessPoolExecutor._launch_processes
-def interrupted_launch(self):
-    launch(self)
-    os.kill(os.getpid(), signal.SIGINT)
-P.ProcessPoolExecutor._launch_processes = interrupted_launch
+def _workers_left_after(interrupt: str) -> tuple[int, str]:
+    """Exit status and output of a process that runs ``interrupt`` (code patching the pool so
+    that a Ctrl-C arrives while it starts), then one call on a 2-worker process pool, and prints
+    how many child processes are left once the KeyboardInterrupt has unwound."""
+    script = (
+        "import concurrent.futures.process as P, multiprocessing, os, signal, sys\n"
+        "import multiprocessing.process as MP\n"
+        "from replication.casestudy.evaluate import executor\n"
+        + interrupt
+        + """
 try:
     with executor("process", workers=2) as pool:
         pool.submit(abs, -1).result()
@@ -742,6 +741,7 @@ except KeyboardInterrupt:
     print("left:", len(multiprocessing.active_children()), flush=True)
     sys.exit(130)
 """
+    )
     with subprocess.Popen(
         [sys.executable, "-c", script], stdout=subprocess.PIPE, text=True, start_new_session=True
     ) as child:
@@ -750,16 +750,27 @@ except KeyboardInterrupt:
         finally:
             with contextlib.suppress(ProcessLookupError):
                 os.killpg(child.pid, signal.SIGKILL)  # a hang's workers too
-    assert child.returncode == 130 and out.strip() == "left: 0", out
+    return child.returncode, out
+
+
+def test_ctrl_c_as_a_fork_pool_starts_its_workers_does_not_hang():
+    """Ctrl-C inside the first submit, after the workers were forked but before the pool's
+    management thread: the command said "interrupted", then waited for them forever."""
+    code, out = _workers_left_after("""
+launch = P.ProcessPoolExecutor._launch_processes
+def interrupted_launch(self):
+    launch(self)
+    os.kill(os.getpid(), signal.SIGINT)
+P.ProcessPoolExecutor._launch_processes = interrupted_launch
+""")
+    assert code == 130 and out.strip() == "left: 0", out
 
 
 def test_ctrl_c_as_a_worker_forks_leaves_no_worker_behind():
     """Ctrl-C held while a worker forked was raised as its start() returned, before the pool
     recorded the worker: the command said "interrupted", then its exit waited for that worker
     for good (table1 --quick and reproduce --quick, SIGINT or SIGTERM a few seconds in)."""
-    script = """
-import concurrent.futures.process as P, multiprocessing, multiprocessing.process as MP, os, signal, sys
-from replication.casestudy.evaluate import executor
+    code, out = _workers_left_after("""
 start = MP.BaseProcess.start
 fired = []
 def interrupted_start(self):
@@ -769,22 +780,8 @@ def interrupted_start(self):
         fired.append(1)
         os.kill(os.getpid(), signal.SIGINT)  # held until the worker has started
 MP.BaseProcess.start = interrupted_start
-try:
-    with executor("process", workers=2) as pool:
-        pool.submit(abs, -1).result()
-except KeyboardInterrupt:
-    print("left:", len(multiprocessing.active_children()), flush=True)
-    sys.exit(130)
-"""
-    with subprocess.Popen(
-        [sys.executable, "-c", script], stdout=subprocess.PIPE, text=True, start_new_session=True
-    ) as child:
-        try:
-            out, _ = child.communicate(timeout=60)
-        finally:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(child.pid, signal.SIGKILL)  # a hang's workers too
-    assert child.returncode == 130 and out.strip() == "left: 0", out
+""")
+    assert code == 130 and out.strip() == "left: 0", out
 
 
 def test_a_worker_terminated_while_it_starts_ends_without_a_traceback():

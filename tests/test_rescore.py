@@ -495,19 +495,24 @@ def test_solver_sph_scores_every_individual_and_resumes_from_its_checkpoints(
     )
 
 
-def test_solver_sph_prints_its_estimate_and_refuses_more_than_an_hour_without_yes(
-    tmp_path, monkeypatch, capsys, fake_engine
-):
-    monkeypatch.chdir(tmp_path)
+def _one_simulation_takes_1000_s(monkeypatch):
+    """The --solver sph estimate measures its one simulation at 1000 s (the rest as it is)."""
     import replication.casestudy.sph_fitness as sph_fitness
 
     real = sph_fitness.estimate
 
-    def hours(fitness, *, workers):  # one simulation measured at 1000 s
+    def slow(fitness, *, workers):
         e = real(fitness, workers=workers)
         return sph_fitness.Estimate(1000.0, e.evaluations, e.workers, e.cached)
 
-    monkeypatch.setattr(sph_fitness, "estimate", hours)
+    monkeypatch.setattr(sph_fitness, "estimate", slow)
+
+
+def test_solver_sph_prints_its_estimate_and_refuses_more_than_an_hour_without_yes(
+    tmp_path, monkeypatch, capsys, fake_engine
+):
+    monkeypatch.chdir(tmp_path)
+    _one_simulation_takes_1000_s(monkeypatch)
     args = [*TINY, "--run-dir", "run", "--solver", "sph", "--particle-radius", "1", "--duration", "16",
             "--cache-dir", "cache"]  # fmt: skip
     assert main(args) == 1
@@ -523,15 +528,7 @@ def test_solver_sph_on_a_named_cluster_estimates_with_the_cluster_s_threads(
     cluster's size), and asked for --yes when a cluster of several would finish within the hour."""
     distributed = pytest.importorskip("distributed")
     monkeypatch.chdir(tmp_path)
-    import replication.casestudy.sph_fitness as sph_fitness
-
-    real = sph_fitness.estimate
-
-    def slow(fitness, *, workers):  # one simulation measured at 1000 s
-        e = real(fitness, workers=workers)
-        return sph_fitness.Estimate(1000.0, e.evaluations, e.workers, e.cached)
-
-    monkeypatch.setattr(sph_fitness, "estimate", slow)
+    _one_simulation_takes_1000_s(monkeypatch)
     args = [*TINY[:-2], "--run-dir", "run", "--solver", "sph", "--particle-radius", "1", "--duration", "16",
             "--cache-dir", "cache"]  # fmt: skip
     with distributed.LocalCluster(

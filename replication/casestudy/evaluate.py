@@ -326,11 +326,12 @@ def _shut_down(pool: cf.ProcessPoolExecutor, announce: Callable[[], None] | None
     # Ctrl-C inside the first submit, after a fork pool started its workers but before its
     # management thread: shutdown cannot reach them, and the interpreter's exit then waited for
     # them forever (a hang after "interrupted"). Such workers are ended after the shutdown.
-    from replication.casestudy.interrupts import workers_of
+    from replication.casestudy.interrupts import unrecorded_workers
 
     unmanaged = getattr(pool, "_executor_manager_thread", None) is None
     recorded = list((getattr(pool, "_processes", None) or {}).values())
-    processes = workers_of(pool)
+    # a worker the pool never recorded (an interrupt as it started) waits for a call for good
+    stray = unrecorded_workers(pool)
     try:
         if announce is not None:
             announce()
@@ -338,12 +339,9 @@ def _shut_down(pool: cf.ProcessPoolExecutor, announce: Callable[[], None] | None
     except KeyboardInterrupt:
         _abandon(pool)
         raise
-    # a worker the pool never recorded (an interrupt as it started) waits for a call for good
-    stray = [p for p in processes if all(p is not r for r in recorded)]
-    if unmanaged and processes:
-        _end(processes)
-    elif stray:
-        _end(stray)
+    left = (recorded if unmanaged else []) + stray
+    if left:
+        _end(left)
 
 
 def _abandon(pool: cf.ProcessPoolExecutor, grace: float = ABANDON_GRACE) -> None:
@@ -355,9 +353,10 @@ def _abandon(pool: cf.ProcessPoolExecutor, grace: float = ABANDON_GRACE) -> None
     ``shutdown`` is not called again: after an interrupted one, the pool's management thread
     may have closed its handles; it ends by itself once the workers are gone.
     """
-    from replication.casestudy.interrupts import workers_of
+    from replication.casestudy.interrupts import unrecorded_workers
 
-    processes = workers_of(pool)  # (3.14: terminate_workers(), of the recorded ones)
+    processes = list((getattr(pool, "_processes", None) or {}).values())  # (3.14: terminate_workers())
+    processes += unrecorded_workers(pool)
     manager = getattr(pool, "_executor_manager_thread", None)
     with _cancelled_futures_quiet(manager):
         _end(processes, grace)

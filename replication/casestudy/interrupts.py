@@ -35,7 +35,7 @@ __all__ = [
     "ignore_interrupts",
     "quiet_spawn_context",
     "quiet_worker_context",
-    "workers_of",
+    "unrecorded_workers",
 ]
 
 
@@ -142,7 +142,7 @@ class _QuietSpawnProcess(multiprocessing.context.SpawnProcess):
         queue = _served_queue(self)
         with _starting_a_child():
             super().start()
-            self.pool_queue = queue  # before a held signal is raised: see workers_of
+            self.pool_queue = queue  # before a held signal is raised: see unrecorded_workers
 
 
 class _QuietSpawnContext(multiprocessing.context.SpawnContext):
@@ -159,12 +159,12 @@ class _QuietForkProcess(multiprocessing.context.ForkProcess):
         queue = _served_queue(self)
         with _starting_a_child():  # (multiprocessing flushes stdout and stderr before it forks)
             super().start()
-            self.pool_queue = queue  # before a held signal is raised: see workers_of
+            self.pool_queue = queue  # before a held signal is raised: see unrecorded_workers
 
 
-def workers_of(pool: Any) -> list[multiprocessing.process.BaseProcess]:
-    """The live worker processes of a process pool started in this module's contexts, the ones
-    the pool has not recorded included.
+def unrecorded_workers(pool: Any) -> list[multiprocessing.process.BaseProcess]:
+    """The live worker processes of a process pool, started in this module's contexts, that the
+    pool has not recorded in ``_processes``.
 
     A Ctrl-C or SIGTERM held while a worker forks is raised as its ``start()`` returns, before
     the pool records the worker in ``_processes``: ending the recorded workers left that one
@@ -172,15 +172,14 @@ def workers_of(pool: Any) -> list[multiprocessing.process.BaseProcess]:
     "interrupted"). Each worker knows the pool's call queue (``pool_queue``, set in ``start``).
     """
     queue = getattr(pool, "_call_queue", None)
-    recorded = list((getattr(pool, "_processes", None) or {}).values())
     if queue is None:
-        return recorded
-    stray = [
+        return []
+    recorded = list((getattr(pool, "_processes", None) or {}).values())
+    return [
         p
         for p in multiprocessing.active_children()
         if getattr(p, "pool_queue", None) is queue and all(p is not r for r in recorded)
     ]
-    return recorded + stray
 
 
 class _QuietForkContext(multiprocessing.context.ForkContext):
