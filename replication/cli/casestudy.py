@@ -54,6 +54,7 @@ from replication.cli.outputs import (
     DEFAULT_DIR,
     QUICK_DIR,
     check_not_committed,
+    check_replaces_alike,
     check_subdirs_stay_out,
     finish_reports,
     missing_dirs,
@@ -264,10 +265,13 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     check_subdirs_stay_out(out, what, REPORT_SUBDIRS)
     check_report_dir(out, what)
     check_pages(out, what, ("casestudy.md", "index.md"))
+    from replication.experiments.casestudy import differences_from_paper, quick_ga_config
     from replication.io.locks import hold_reports_dir
 
     hold_reports_dir(out, what)  # (two runs into one directory left one's page over the other's data)
-    from replication.experiments.casestudy import quick_ga_config
+    # the run's settings as its provenance will record them (a saved case study of others stays)
+    settings = ["--quick"] if config == quick_ga_config() else differences_from_paper(config.as_dict())
+    check_replaces_alike(out, what, [*settings, *([sph_option] if sph_option else [])], ["casestudy"])
 
     hint = ["replication", "casestudy", "--run-dir", str(run_dir), "--resume"]
     if out.resolve() != default_out.resolve():

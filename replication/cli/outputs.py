@@ -32,6 +32,7 @@ __all__ = [
     "QUICK_DIR",
     "TABLE1_SUBDIRS",
     "check_not_committed",
+    "check_replaces_alike",
     "check_subdirs_stay_out",
     "checkout_readme",
     "finish_reports",
@@ -51,13 +52,16 @@ def planned_output_dir(
     pages: tuple[str, ...] | Callable[[Path], tuple[str, ...]],
     subdirs: tuple[str, ...] = REPORT_SUBDIRS,
     custom: Sequence[str] = (),
+    replaces: Sequence[str] | Callable[[Path], Sequence[str]] = (),
 ) -> Path:
     """The reports directory of ``table1``/``reproduce``/``sph``/``validate-jet``, checked (not
     created), with the ``subdirs`` the command writes into and the ``pages`` it writes (each
     absent or a page of ours, :func:`replication.report.pages.check_pages`; a function of the
     directory when which pages are drawn depends on what it holds). ``custom`` names the
     settings of the run that are not the paper's besides ``--quick`` (see
-    :func:`check_not_committed`)."""
+    :func:`check_not_committed`); ``replaces`` the data sets the run saves (their prefixes:
+    ``"table1"``, ...), each of which may only replace one of its own settings or a quick one
+    (:func:`check_replaces_alike`)."""
     from replication.report.pages import check_pages
 
     explicit = getattr(args, "output_dir", None)
@@ -70,6 +74,8 @@ def planned_output_dir(
     hold_reports_dir(out, what)
     check_report_dir(out, what, subdirs)
     check_pages(out, what, pages(out) if callable(pages) else pages)
+    settings = [*(["--quick"] if quick else []), *custom]
+    check_replaces_alike(out, what, settings, replaces(out) if callable(replaces) else replaces)
     return out
 
 
@@ -152,6 +158,42 @@ def check_subdirs_stay_out(out: str | Path, what: str, subdirs: Sequence[str]) -
                     f"{what} {out}: its {name}/ leads into {place}, a checkout's committed reports, "
                     f"so a run reporting into {out} would write there: name another directory"
                 )
+
+
+def check_replaces_alike(out: str | Path, what: str, run: Sequence[str], prefixes: Sequence[str]) -> None:
+    """Refuse a run whose data sets would replace, in ``out/data``, saved ones of other settings.
+
+    ``table1 --quick --output-dir DIR``, with DIR holding a run of the paper's settings,
+    replaced that run's data without a word, and DIR's index then mixed the two kinds of run.
+    A run may replace a data set of its own settings (a regeneration) or a quick one
+    (:func:`replication.report.settings.replacement_refused`).
+
+    Parameters
+    ----------
+    out : path-like
+        The reports directory.
+    what : str
+        How the directory was named, for the message ("--output-dir").
+    run : sequence of str
+        The run's settings that are not the paper's, as options ("--quick"), empty for the paper's.
+    prefixes : sequence of str
+        The data sets the run saves.
+
+    Raises
+    ------
+    UsageError
+        A saved data set is in the way.
+    """
+    from replication.errors import UsageError
+    from replication.report.settings import replacement_refused
+
+    for prefix in prefixes:
+        why = replacement_refused(Path(out) / "data", prefix, run)
+        if why is not None:
+            raise UsageError(
+                f"{what} {out} {why}: name another directory, or move {Path(out) / 'data' / prefix}_* "
+                "away first"
+            )
 
 
 def finish_reports(out: Path) -> list[Path]:

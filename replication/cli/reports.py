@@ -63,7 +63,7 @@ def _said(written: list[Path], out: Path) -> None:
 
 
 def _cmd_table1(args: argparse.Namespace) -> int:
-    out = planned_output_dir(args, ("table1.md", "index.md"), TABLE1_SUBDIRS)
+    out = planned_output_dir(args, ("table1.md", "index.md"), TABLE1_SUBDIRS, replaces=("table1",))
     start = time.perf_counter()
     path = _run_table1(out, args.quick, args.invocation, args.workers)
     written = finish_reports(out)
@@ -126,12 +126,35 @@ def _check_readme(readme: str, out: Path) -> Path:
         raise InputError(
             f"--readme {path}: its {END} marker comes before {START}, so there is no block to fill"
         )
+    _check_not_checkout_readme(path, out)
     data = sorted((out / "data").glob("*")) if (out / "data").is_dir() else []
     check_distinct(
         [("--readme", path), *((f"the report {name}", out / name) for name in RENDERED)],
         [("report data", p) for p in data],
     )
     return path
+
+
+def _check_not_checkout_readme(readme: Path, out: Path) -> None:
+    """Refuse ``--readme`` naming a checkout's README while ``out`` is not that checkout's reports.
+
+    A checkout's README states the numbers of the committed ``reports/`` beside it
+    (:func:`replication.cli.outputs.finish_reports`; ``tests/test_readme.py`` checks it):
+    ``report --output-dir reports-quick --readme README.md`` wrote a quick run's numbers there.
+    """
+    from replication.errors import UsageError
+    from replication.io.paths import same_file
+
+    beside = checkout_readme(readme.parent / DEFAULT_DIR)
+    if beside is None or not same_file(beside, readme):
+        return
+    ours = checkout_readme(out)
+    if ours is not None and same_file(ours, readme):
+        return
+    raise UsageError(
+        f"--readme {readme} is a checkout's README, whose headline states the numbers of its committed "
+        f"{readme.parent / DEFAULT_DIR}/, not those of {out}: name a copy of it"
+    )
 
 
 def _fill_speed_block(readme: Path | None, out: Path) -> list[Path]:
@@ -272,8 +295,22 @@ def _reproduce_pages(out: Path, *, quick: bool) -> tuple[str, ...]:
     return tuple(p for p in RENDERED if p != "performance.md" and p not in skipped)
 
 
+def _reproduce_replaces(out: Path, *, quick: bool) -> tuple[str, ...]:
+    """The data sets ``reproduce`` may save into ``out`` (the case study's is checked with its
+    plan): Table 1's, the SPH study's when the engine is installed, and the validation study's
+    when the SPH cache holds it (else its saved data are only drawn again)."""
+    from replication.casestudy.sph import engine_available
+    from replication.cli.validate_run import reproduce_runs
+
+    return ("table1", *(("sph",) if engine_available() else ()),
+            *(("jet_validation",) if reproduce_runs(quick) else ()))  # fmt: skip
+
+
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    out = planned_output_dir(args, functools.partial(_reproduce_pages, quick=args.quick), TABLE1_SUBDIRS)
+    out = planned_output_dir(
+        args, functools.partial(_reproduce_pages, quick=args.quick), TABLE1_SUBDIRS,
+        replaces=functools.partial(_reproduce_replaces, quick=args.quick),
+    )  # fmt: skip
     ga_args = argparse.Namespace(
         quick=args.quick, runs=None, generations=None, population=None, seed=None, run_dir=None,
         resume=False, executor="auto", workers=args.workers, scheduler=None, invocation=args.invocation,

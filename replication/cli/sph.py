@@ -300,7 +300,7 @@ def _cmd_sph(args: argparse.Namespace) -> int:
     from replication.casestudy.sph import require_engine
     from replication.cli.outputs import finish_reports, planned_output_dir
 
-    out = planned_output_dir(args, ("sph.md", "index.md"))
+    out = planned_output_dir(args, ("sph.md", "index.md"), replaces=("sph",))
     check_temporary_dir_utf8()  # its simulations run in temporary directories
     cache = sph_cache(args.cache_dir)
     require_engine()

@@ -26,12 +26,16 @@ cached simulations into misses; --rebuild-surfaces builds them afresh.
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from replication.cli.outputs import finish_reports, planned_output_dir
+    from replication.cli.outputs import check_replaces_alike, finish_reports, planned_output_dir
 
     _check_options(args)
     custom = _custom_settings(args)
     _check_custom_run(args, custom)
     out = planned_output_dir(args, ("jet_validation.md", "index.md"), custom=custom)
+    # by --quick alone: a saved study does not record --timeout or --ga-run-dir apart from its
+    # command line, and its simulations stay in the SPH cache, so a replaced study is redrawn in minutes
+    what = "--output-dir" if args.output_dir else "the reports directory"
+    check_replaces_alike(out, what, ["--quick"] if args.quick else [], ["jet_validation"])
     start = time.perf_counter()
     results, path = run_validation_report(args, out)
     table = results.surfaces

@@ -179,7 +179,13 @@ def reproduce_draws(out: Path, quick: bool) -> bool:
     otherwise), decided before any work so that only a page it may draw is checked."""
     from replication.report.jet_validation import saved_study
 
-    return not _cache_why(quick)[1] or saved_study(out)
+    return reproduce_runs(quick) or saved_study(out)
+
+
+def reproduce_runs(quick: bool) -> bool:
+    """Whether :func:`reproduce_stage` will run the study from the SPH cache (and so save its
+    data), not only draw the saved data again."""
+    return not _cache_why(quick)[1]
 
 
 def _from_saved(out: Path, why: str) -> tuple[Path | None, str]:

@@ -14,6 +14,7 @@ from replication.io.atomic import atomic_write_text
 from replication.report.casestudy_validation import validation_headline
 from replication.report.markdown import write_report
 from replication.report.pages import is_ours
+from replication.report.settings import TITLES, describe, saved_settings, settings_note
 from replication.report.store import read_csv, read_provenance
 
 __all__ = ["REPORTS", "fill_block", "has_block", "headline", "render_index", "update_readme"]
@@ -123,7 +124,7 @@ def headline(out_dir: str | os.PathLike[str]) -> list[str]:
     for prefix, command in _DATA_SETS:
         if (data / f"{prefix}_provenance.json").is_file():
             read_provenance(data, f"{prefix}_provenance.json", command)
-    lines: list[str] = []
+    lines: list[str] = _not_the_papers(data)
     if (data / "table1_claims.csv").is_file():
         claims, mc = read_csv(data / "table1_claims.csv"), read_csv(data / "table1_montecarlo.csv")
         n = int(mc["n"].max())
@@ -156,6 +157,22 @@ def headline(out_dir: str | os.PathLike[str]) -> list[str]:
         )
         lines += validated
     return lines
+
+
+def _not_the_papers(data: Path) -> list[str]:
+    """A first headline line naming the data sets made with other settings than the paper's
+    (a quick run's numbers are not findings), or none."""
+    others = []
+    for prefix, _ in _DATA_SETS:
+        settings = saved_settings(data, prefix)
+        if settings:
+            others.append(f"the {TITLES[prefix]} with {describe(settings)}")
+    if not others:
+        return []
+    return [
+        f"- *Not the paper's settings*: {'; '.join(others)}. Numbers drawn from "
+        f"{'it' if len(others) == 1 else 'them'} are a trial's, not the replication's findings."
+    ]
 
 
 def _paper_force(shape: pd.Series) -> str:
@@ -246,7 +263,8 @@ def render_index(out_dir: str | os.PathLike[str]) -> Path:
     ]
     for name, title, what in REPORTS:
         if (out / name).is_file() and is_ours(out / name):  # not a file of somebody else's of that name
-            lines.append(f"- [{title}]({name}): {what}")
+            note = "" if name == "performance.md" else settings_note(out / "data", name.removesuffix(".md"))
+            lines.append(f"- [{title}]({name}): {what}{note}")
         else:
             lines.append(f"- {title}: {what} - *not generated yet*")
     lines += ["", "## Headline results", "", *headline(out)]

@@ -1,0 +1,190 @@
+"""A saved data set is replaced only by a run of its own settings or when it is a quick run's,
+and a reports directory says which of its data sets are not the paper's settings."""
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from replication.cli import main
+from replication.report.settings import (
+    QUICK,
+    describe,
+    replacement_refused,
+    saved_settings,
+    settings_note,
+)
+
+COMMITTED = Path(__file__).resolve().parents[1] / "reports" / "data"
+
+
+def _provenance(data: Path, prefix: str, **record) -> None:
+    data.mkdir(parents=True, exist_ok=True)
+    (data / f"{prefix}_provenance.json").write_text(json.dumps(record))
+
+
+def _copy_data_set(prefix: str, into: Path) -> dict[str, bytes]:
+    """The committed data set ``prefix`` (made with the paper's settings) copied into ``into/data``;
+    the bytes of every file there."""
+    data = into / "data"
+    data.mkdir(parents=True, exist_ok=True)
+    for path in COMMITTED.glob(f"{prefix}_*"):
+        if path.is_dir():
+            shutil.copytree(path, data / path.name)
+        else:
+            shutil.copy(path, data / path.name)
+    return _contents(into)
+
+
+def _contents(root: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def test_the_settings_a_data_set_was_saved_with(tmp_path):
+    from replication.casestudy.ga import GAConfig
+    from replication.experiments.casestudy import quick_ga_config
+
+    data = tmp_path / "data"
+    assert saved_settings(data, "table1") is None  # nothing saved
+    _provenance(data, "table1", config={"quick": True})  # Table 1 records quick in its configuration
+    assert saved_settings(data, "table1") == QUICK
+    _provenance(data, "sph", quick=False, config={})
+    assert saved_settings(data, "sph") == ()
+    paper = GAConfig().as_dict()
+    _provenance(data, "casestudy", quick=False, config=paper)
+    assert saved_settings(data, "casestudy") == ()
+    _provenance(data, "casestudy", quick=False, config={**paper, "seed": 7}, solver={"kind": "sph"})
+    assert saved_settings(data, "casestudy") == ("seed 7 (paper: 2019)", "--solver sph")
+    _provenance(data, "casestudy", quick=True, config=quick_ga_config().as_dict(), rescore={})
+    assert saved_settings(data, "casestudy") == (*QUICK, "--rescore sph")
+    (data / "jet_validation_provenance.json").write_text("{not json")  # the report refuses it, when drawn
+    assert saved_settings(data, "jet_validation") is None
+    for prefix in ("table1", "sph", "jet_validation", "casestudy"):  # the committed ones: the paper's
+        assert saved_settings(COMMITTED, prefix) == ()
+
+
+@pytest.mark.parametrize(
+    ("saved", "run", "refused"),
+    [
+        ((), (), False),  # a regeneration
+        (QUICK, (), False),  # a quick run is a minute's smoke test: anything may replace it
+        (QUICK, ("seed 7 (paper: 2019)",), False),
+        ((), QUICK, True),  # the audit's case: a quick run over the paper's
+        (("seed 7 (paper: 2019)",), (), True),  # a run of other settings, which may have taken hours
+        (("seed 7 (paper: 2019)",), ("seed 8 (paper: 2019)",), True),
+        (("seed 7 (paper: 2019)",), ("seed 7 (paper: 2019)",), False),
+        ((*QUICK, "--solver sph"), QUICK, True),  # a quick run scored by SPH is not a minute's
+    ],
+)
+def test_which_data_sets_a_run_may_replace(tmp_path, saved, run, refused):
+    from replication.casestudy.ga import GAConfig
+    from replication.experiments.casestudy import quick_ga_config
+
+    quick = saved[:1] == QUICK
+    config = quick_ga_config().as_dict() if quick else GAConfig().as_dict()
+    for item in saved[1 if quick else 0 :]:
+        if item.startswith("seed "):
+            config["seed"] = int(item.split()[1])
+    record = {"quick": quick, "config": config, **({"solver": {}} if "--solver sph" in saved else {})}
+    _provenance(tmp_path, "casestudy", **record)
+    assert saved_settings(tmp_path, "casestudy") == saved
+    why = replacement_refused(tmp_path, "casestudy", run)
+    assert (why is not None) == refused
+    if refused:
+        assert why == (
+            f"holds a case study with {describe(saved)} (data/casestudy_provenance.json) "
+            f"that a run with {describe(run)} would replace"
+        ).replace("(data/", f"({tmp_path.name}/")
+
+
+@pytest.mark.parametrize(
+    ("command", "prefixes", "kind"),
+    [
+        (["table1", "--quick"], ["table1"], "Table 1 run"),
+        (["reproduce", "--quick"], ["table1", "casestudy"], "Table 1 run"),
+        (["sph", "--quick"], ["sph"], "SPH study"),
+        (["validate-jet", "--quick"], ["jet_validation"], "jet-model validation study"),
+        (["casestudy", "--quick"], ["casestudy"], "case study"),
+        (["casestudy", "--runs", "1", "--generations", "2"], ["casestudy"], "case study"),
+        (["casestudy", "--solver", "sph"], ["casestudy"], "case study"),
+    ],
+)
+def test_a_run_of_other_settings_does_not_replace_a_saved_data_set(
+    tmp_path, monkeypatch, capsys, command, prefixes, kind
+):
+    # was: `table1 --quick --output-dir DIR`, DIR holding a full run, replaced its data without a
+    # word, and DIR's index put the quick Table 1 beside the full case study
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "mine"
+    for prefix in prefixes:
+        _copy_data_set(prefix, out)
+    before = _contents(tmp_path)
+    assert main([*command, "--output-dir", "mine"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1, err
+    assert f"--output-dir mine holds a {kind} with the paper's settings (data/" in err
+    assert "name another directory, or move mine/data/" in err and "_* away first" in err
+    assert _contents(tmp_path) == before  # refused before any work: no run directory, no page
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine"]
+
+
+def test_a_run_replaces_its_own_settings_and_a_quick_run(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    tiny = ["casestudy", "--runs", "1", "--generations", "2", "--population", "6", "--executor", "serial"]
+    _provenance(tmp_path / "mine" / "data", "casestudy", quick=True, config={})  # a quick run's
+    assert main([*tiny, "--output-dir", "mine", "--run-dir", "one"]) == 0
+    first = json.loads((tmp_path / "mine" / "data" / "casestudy_provenance.json").read_text())
+    assert "one" in first["command"]
+    assert main([*tiny, "--output-dir", "mine", "--run-dir", "two"]) == 0  # the same settings again
+    second = json.loads((tmp_path / "mine" / "data" / "casestudy_provenance.json").read_text())
+    assert "two" in second["command"]
+    capsys.readouterr()
+    assert main([*tiny[:-4], "--population", "8", "--output-dir", "mine", "--run-dir", "three"]) == 2
+    assert "population 6 (paper: 48)" in capsys.readouterr().err
+    assert not (tmp_path / "three").exists()
+
+
+def test_the_index_names_data_sets_of_other_settings(quick_reports, tmp_path):
+    from replication.report.index import render_index
+
+    index = (quick_reports / "index.md").read_text()
+    assert "(section 6) (*quick run*: reduced settings, a smoke test)" in index
+    assert "- *Not the paper's settings*: the Table 1 run with --quick; " in index
+    # the committed reports: the paper's settings, nothing said
+    assert (
+        settings_note(COMMITTED, "table1") == ""
+        and "Not the paper's" not in (COMMITTED.parent / "index.md").read_text()
+    )
+    # a case study with another seed, beside Table 1 with the paper's settings
+    _copy_data_set("table1", tmp_path)
+    _copy_data_set("casestudy", tmp_path)
+    path = tmp_path / "data" / "casestudy_provenance.json"
+    record = json.loads(path.read_text())
+    record["config"]["seed"] = 7  # the checksums are those of the other files: still whole
+    path.write_text(json.dumps(record))
+    text = render_index(tmp_path).read_text()
+    assert "- *Not the paper's settings*: the case study with seed 7 (paper: 2019). Numbers drawn" in text
+    assert "(*other settings*: seed 7 (paper: 2019))" not in text  # no casestudy.md here: not linked
+    (tmp_path / "casestudy.md").write_text((COMMITTED.parent / "casestudy.md").read_text())
+    assert "(*other settings*: seed 7 (paper: 2019))" in render_index(tmp_path).read_text()
+
+
+def test_report_does_not_fill_a_checkout_s_readme_from_other_reports(
+    quick_reports, tmp_path, monkeypatch, capsys
+):
+    # was: `report --output-dir reports-quick --readme README.md` wrote the quick numbers into
+    # the checkout's README, whose headline states the committed reports' numbers
+    from test_report_ownership import _checkout
+
+    monkeypatch.chdir(tmp_path)
+    readme = _checkout(tmp_path)
+    shutil.copytree(quick_reports, tmp_path / "reports-quick")
+    assert main(["report", "--output-dir", "reports-quick", "--readme", "README.md"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1
+    assert "--readme README.md is a checkout's README, whose headline states the numbers of its" in err
+    assert (tmp_path / "README.md").read_text() == readme
+    shutil.copy(tmp_path / "README.md", tmp_path / "copy.md")  # a copy is anyone's to fill
+    assert main(["report", "--output-dir", "reports-quick", "--readme", "copy.md"]) == 0
+    assert "Not the paper's settings" in (tmp_path / "copy.md").read_text()
