@@ -170,6 +170,14 @@ def test_the_index_names_data_sets_of_other_settings(quick_reports, tmp_path):
     assert "(*other settings*: seed 7 (paper: 2019))" in render_index(tmp_path).read_text()
 
 
+def test_a_quick_page_names_itself_in_its_reproduce_block(quick_reports):
+    table1 = (quick_reports / "table1.md").read_text()
+    assert "# a reduced run for smoke testing (under a minute) (this report)\n" in table1
+    assert "replication table1            # the full run, then renders it" in table1
+    committed = (COMMITTED.parent / "table1.md").read_text()
+    assert "replication table1            # the full run (this report), then renders it" in committed
+
+
 def test_report_does_not_fill_a_checkout_s_readme_from_other_reports(
     quick_reports, tmp_path, monkeypatch, capsys
 ):
@@ -188,3 +196,14 @@ def test_report_does_not_fill_a_checkout_s_readme_from_other_reports(
     shutil.copy(tmp_path / "README.md", tmp_path / "copy.md")  # a copy is anyone's to fill
     assert main(["report", "--output-dir", "reports-quick", "--readme", "copy.md"]) == 0
     assert "Not the paper's settings" in (tmp_path / "copy.md").read_text()
+
+
+def test_quick_page_wording():
+    import pandas as pd
+
+    from replication.report.table1 import _exponent, _span
+
+    assert _span(pd.Series([100.0, 99.8]), ".0f") == "100"  # was "100-100 %"
+    assert _span(pd.Series([11.2, 26.0]), ".0f") == "11-26"
+    assert _exponent(1.04, float("nan")) == "1.04 (too few sizes for a standard error)"  # was "± –"
+    assert _exponent(1.04, 0.012) == "1.04 ± 0.01"

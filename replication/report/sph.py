@@ -180,6 +180,7 @@ def render_sph(out_dir: str | os.PathLike[str]) -> Path:
         else ""
     )
     duration = 1e3 * config["duration"]
+    full_mark, quick_mark = ("the full study", " (this report)") if prov.get("quick") else ("this report", "")
     cache_note = _cache_note(prov, len(runs))
     at_once = int(prov.get("simulations_at_once", 1))  # data saved before it was recorded: one at a time
     beside = "one at a time" if at_once == 1 else f"{at_once} at a time, each on its own core"
@@ -341,8 +342,8 @@ Wall time of one simulation of {duration:g} ms (median over the shapes; one engi
 
 ```bash
 python -m pip install ".[sph]"
-replication sph                 # this report (also run by `replication reproduce` when installed)
-replication sph --quick         # coarse particles only, into reports-quick/
+replication sph                 # {full_mark} (also run by `replication reproduce` when installed)
+replication sph --quick         # coarse particles only, into reports-quick/{quick_mark}
 replication force flat.csv --solver sph --particle-radius 0.75 --json   # one surface
 ```
 

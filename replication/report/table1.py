@@ -406,12 +406,25 @@ def _paper_files(d: dict[str, Any]) -> str:
     )
 
 
+def _span(values: pd.Series, spec: str) -> str:
+    """The range of ``values`` ("11-26"), or one value ("100") when both ends read the same."""
+    low, high = format(values.min(), spec), format(values.max(), spec)
+    return low if low == high else f"{low}-{high}"
+
+
+def _exponent(exponent: float, stderr: float) -> str:
+    """A growth exponent with its standard error, which a fit through two sizes does not have."""
+    if not math.isfinite(float(stderr)):
+        return f"{fmt(exponent, '.2f')} (too few sizes for a standard error)"
+    return f"{fmt(exponent, '.2f')} ± {fmt(stderr, '.2f')}"
+
+
 def _scale_tables(d: dict[str, Any]) -> tuple[str, str, str]:
     scale, growth, raw = d["scale"], d["growth"], d["scale_raw"]
     rows = [[str(r["n"]), r["method"], iqr(r["median"], r["q1"], r["q3"])] for _, r in scale.iterrows()]
     times = table(rows, ["n", "method", "build time [s] median [IQR]"])
     rows = [
-        [r["method"], f"{fmt(r['exponent'], '.2f')} ± {fmt(r['stderr'], '.2f')}",
+        [r["method"], _exponent(r["exponent"], r["stderr"]),
          f"{fmt(r['n_min'], 'int')} to {fmt(r['n_max'], 'int')}"]
         for _, r in growth.iterrows()
     ]  # fmt: skip
@@ -431,12 +444,12 @@ def _interpretation(d: dict[str, Any]) -> str:
         return ""
     return (
         "Both surfaces interpolate the same cloud, so their mean depth difference is close to zero by "
-        f"construction: the paper's two tests fail to reject a difference for {100 * both.min():.0f}-"
-        f"{100 * both.max():.0f} % of the clouds, about the 95 % expected of tests at the 5 % level when "
+        f"construction: the paper's two tests fail to reject a difference for {_span(100 * both, '.0f')} "
+        "% of the clouds, about the 95 % expected of tests at the 5 % level when "
         "there is no mean difference at all. That is what the paper reads as similarity, but it says "
         "nothing about how close the surfaces are: point by point they differ by a median RMS of "
-        f"{rms.min():.0f}-{rms.max():.0f} % of the depth range (median maximum {peak.min():.0f}-"
-        f'{peak.max():.0f} %), far above the paper\'s "under 5 %". An equivalence test of the mean '
+        f"{_span(rms, '.0f')} % of the depth range (median maximum {_span(peak, '.0f')} %), far above "
+        'the paper\'s "under 5 %". An equivalence test of the mean '
         "difference (TOST) is passed more often as n grows, because it tests the mean only."
     )
 
@@ -483,6 +496,8 @@ def render_table1(out_dir: str | os.PathLike[str], *, workers: int = 1) -> Path:
     storage_ratios, storage_sizes = _storage_tables(d)
     storage_claim = d["claims"][d["claims"]["claim"].str.startswith(STORAGE_HEADLINE)].iloc[0]
     box = config["box"]
+    warmups = f"{config['warmup']} warm-up run{'' if config['warmup'] == 1 else 's'}"
+    full_mark, quick_mark = ("", " (this report)") if config.get("quick") else (" (this report)", "")
     lattice = f"on a {config['step']:g} mm lattice" if config["step"] else "continuous"
     quick = (
         (
@@ -525,7 +540,7 @@ The details, the paper's numbers side by side and the reasons follow.
   representation of each surface: legacy VTK for ADT, smesh for NURBS, both with shortest exact
   decimals. The storage claim is decided in four representation families, for these lattice
   clouds and for continuous clouds in the same box (section "Storage" below).
-- **Times**: {config["repeats"]} repeats after {config["warmup"]} warm-up runs, all tasks interleaved
+- **Times**: {config["repeats"]} repeats after {warmups}, all tasks interleaved
   in one process in rotating order; median [inter-quartile range]; ratios formed per repeat pair.
 - **Statistics**: depths paired (a) at NURBS samples (a parameter grid the size of the net) and (b)
   at the cloud's distinct positions; the paper's t-test and Wilcoxon test at the {config["alpha"]:g}
@@ -649,8 +664,8 @@ File sizes at scale:
 ## Reproduce
 
 ```bash
-replication table1            # the full run (this report), then renders it
-replication table1 --quick    # a reduced run for smoke testing (under a minute)
+replication table1            # the full run{full_mark}, then renders it
+replication table1 --quick    # a reduced run for smoke testing (under a minute){quick_mark}
 replication report            # re-render the markdown and figures from data/ only
 ```
 
