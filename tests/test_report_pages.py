@@ -179,3 +179,20 @@ def test_reproduce_checks_only_the_pages_of_the_stages_it_will_run(engine, tmp_p
     assert "jet_validation.md" in _reproduce_pages(notes, quick=True)
     with pytest.raises(OutputError, match=r"jet_validation\.md is not a report page"):
         planned_output_dir(args, lambda out: _reproduce_pages(out, quick=True))
+
+
+def test_an_out_of_date_note_goes_under_the_title_of_our_pages_only(tmp_path):
+    from replication.report.pages import OUT_OF_DATE, mark_out_of_date
+
+    page = tmp_path / "table1.md"
+    assert not mark_out_of_date(page, "replication report")  # no page
+    page.write_text(NOTES)
+    assert not mark_out_of_date(page, "replication report") and page.read_text() == NOTES  # not ours
+    page.unlink()
+    write_page(page, PAGE_TITLES["table1.md"] + "\n\nBody.\n")
+    assert mark_out_of_date(page, "replication report --output-dir x")
+    text = page.read_text()
+    assert text.startswith(PAGE_TITLES["table1.md"] + "\n\n" + OUT_OF_DATE)
+    assert "`replication report --output-dir x`.\n\nBody.\n" in text
+    assert text.endswith("Body.\n\n" + MARKER + "\n") and text.count(MARKER) == 1 and is_ours(page)
+    assert not mark_out_of_date(page, "replication report") and page.read_text() == text  # once

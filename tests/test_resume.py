@@ -378,3 +378,41 @@ def test_ctrl_c_while_the_report_is_drawn_says_the_data_are_saved(capsys, tmp_pa
         json.loads((tmp_path / "out" / "data" / "casestudy_provenance.json").read_text())["config"]["seed"]
         == 6
     )
+
+
+@pytest.mark.parametrize("how", ["ctrl-c", "full disk"])
+def test_an_earlier_run_s_page_left_beside_new_data_says_it_is_out_of_date(
+    how, capsys, tmp_path, monkeypatch
+):
+    """A second case study into the same directory, its drawing cut short: the first run's
+    casestudy.md stayed beside the second's data and read as their report."""
+    from replication.errors import OutputError
+    from replication.report.pages import OUT_OF_DATE, is_ours
+
+    def cut_short(out, workers=1):
+        if how == "ctrl-c":
+            raise KeyboardInterrupt
+        raise OutputError("No space left on device")
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["casestudy", *TINY_ARGS, "--output-dir", "out", "--run-dir", "r1"]) == 0
+    page = tmp_path / "out" / "casestudy.md"
+    first = page.read_text()
+    assert OUT_OF_DATE not in first
+    monkeypatch.setattr("replication.report.casestudy.render_casestudy", cut_short)
+    assert main(["casestudy", *TINY_ARGS, "--output-dir", "out", "--run-dir", "r2"]) == (
+        130 if how == "ctrl-c" else 1
+    )
+    capsys.readouterr()
+    marked = page.read_text()
+    title, blank, note = marked.splitlines()[:3]
+    assert title == first.splitlines()[0] and blank == ""
+    assert note == (
+        f"{OUT_OF_DATE} drawn from an earlier run's data, which a later run has replaced in data/ "
+        "before this page could be drawn again. Draw it with `replication report --output-dir out`."
+    )
+    assert marked.replace(f"{note}\n\n", "", 1) == first and is_ours(page)
+    monkeypatch.undo()
+    monkeypatch.chdir(tmp_path)
+    assert main(["report", "--output-dir", "out"]) == 0
+    assert OUT_OF_DATE not in page.read_text() and "r2" in page.read_text()

@@ -355,7 +355,7 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
                   f"previous data in {plan.out / 'data'} are as they were; save them with: {plan.hint}",
                   file=sys.stderr)  # fmt: skip
         raise
-    with drawing_saved_data(plan.out):
+    with drawing_saved_data(plan.out, "casestudy.md"):
         return results, render_casestudy(plan.out, workers=_workers(args))
 
 

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from replication.cpus import usable_cpus
-from replication.errors import DuplicatePointsWarning, InputError, UsageError, escaped
+from replication.errors import DuplicatePointsWarning, InputError, ReplicationError, UsageError, escaped
 
 __all__ = [
     "about_the_input",
@@ -398,28 +398,50 @@ def saving_data(out: Any) -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def drawing_saved_data(out: Any) -> Iterator[None]:
-    """Around drawing a report from the data just saved into ``out/data``: an error (a full
-    disk) leaves the page and figures of an earlier run beside the new data, or some of them
-    redrawn, so its one line also says that the data are saved and how to draw the report;
-    so does a line before the command's last after a Ctrl-C."""
+def drawing_saved_data(out: Any, page: str) -> Iterator[None]:
+    """Around drawing the report ``page`` from the data just saved into ``out/data``: an error
+    (a full disk) leaves the page and figures of an earlier run beside the new data, or some of
+    them redrawn, so its one line also says that the data are saved and how to draw the report;
+    so does a line before the command's last after a Ctrl-C. An earlier run's page that was
+    not drawn again gets a note saying that it is out of date
+    (:func:`replication.report.pages.mark_out_of_date`)."""
     from pathlib import Path
 
-    from replication.errors import ReplicationError
     from replication.io.atomic import written_before
 
     draw = draw_command(out)
+    path = Path(out) / page
+    try:
+        earlier = path.read_bytes()
+    except OSError:
+        earlier = None
     try:
         yield
     except ReplicationError as exc:
+        _mark_if_not_drawn(path, earlier, draw)
         raise type(exc)(
             f"{exc}; the new data are saved in {out}/data: once that is fixed, draw the report with: {draw}"
         ) from exc
     except KeyboardInterrupt as exc:
         if not written_before(exc):  # (else it was drawn: the command's last line names its files)
+            _mark_if_not_drawn(path, earlier, draw)
             print(f"interrupted while drawing the report: its data are saved in {Path(out) / 'data'}; "
                   f"draw it with: {draw}", file=sys.stderr)  # fmt: skip
         raise
+
+
+def _mark_if_not_drawn(path: Any, earlier: bytes | None, draw: str) -> None:
+    """Mark the page at ``path`` out of date when it is still the earlier run's (``earlier``)."""
+    from replication.report.pages import mark_out_of_date
+
+    if earlier is None:
+        return
+    try:
+        if path.read_bytes() != earlier:  # drawn anew (or gone): nothing to mark
+            return
+        mark_out_of_date(path, draw)
+    except (OSError, ReplicationError):  # the disk that failed the drawing: the message says it
+        return
 
 
 @contextlib.contextmanager

@@ -52,7 +52,7 @@ def _run_table1(out: Path, quick: bool, command: str, workers: int | None = None
     results = run_table1(config, progress=progress_bar, command=command, workers=workers)
     with saving_data(out):  # minutes of experiment: a Ctrl-C says where they are saved
         save_table1_data(results, out)
-    with drawing_saved_data(out):
+    with drawing_saved_data(out, "table1.md"):
         return render_table1(out, workers=workers)
 
 

@@ -372,7 +372,7 @@ def run_sph_report(
             raise
     with saving_data(out):
         save_sph_data(results, out)
-    with drawing_saved_data(out):
+    with drawing_saved_data(out, "sph.md"):
         return render_sph(out)
 
 

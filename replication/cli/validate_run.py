@@ -97,7 +97,7 @@ def run_validation_report(args: argparse.Namespace, out: Path) -> tuple[Any, Pat
         )
     with saving_data(out):
         save_jet_validation_data(results, out)
-    with drawing_saved_data(out):
+    with drawing_saved_data(out, "jet_validation.md"):
         return results, render_jet_validation(out)
 
 

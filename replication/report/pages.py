@@ -22,7 +22,16 @@ from pathlib import Path
 
 from replication.errors import OutputError
 
-__all__ = ["MARKER", "PAGE_TITLES", "check_pages", "is_ours", "marked", "report_page_in", "write_page"]
+__all__ = [
+    "MARKER",
+    "PAGE_TITLES",
+    "check_pages",
+    "is_ours",
+    "mark_out_of_date",
+    "marked",
+    "report_page_in",
+    "write_page",
+]
 
 #: The last line of every page this package writes (an HTML comment: markdown shows nothing).
 MARKER = "<!-- drawn by the replication package from data/: edits are lost when it is drawn again -->"
@@ -159,3 +168,44 @@ def write_page(path: str | os.PathLike[str], text: str, *, old: str | None = Non
         raise _refusal(path, "report page")
     atomic_write_text(path, marked(text))
     return path
+
+
+#: The first words of the note :func:`mark_out_of_date` puts under a page's title.
+OUT_OF_DATE = "> **Out of date**:"
+
+
+def mark_out_of_date(path: str | os.PathLike[str], draw: str) -> bool:
+    """Put a note under the title of a page drawn from data that a later run has replaced.
+
+    A run saves its data, then draws its page; when the drawing is cut short (Ctrl-C, a full
+    disk) the earlier run's page stayed beside the new data and read as their report. The note
+    says so and how to draw the page again; drawing it removes the note with the rest.
+
+    Parameters
+    ----------
+    path : path-like
+        The page.
+    draw : str
+        The command that draws it again.
+
+    Returns
+    -------
+    bool
+        Whether the note was added: not when there is no page, it is not one of ours, or it
+        has the note already.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return False
+    if not _ours(path.name, text) or OUT_OF_DATE in text:
+        return False
+    title, _, rest = text.partition("\n")
+    note = (
+        f"{OUT_OF_DATE} drawn from an earlier run's data, which a later run has replaced in data/ "
+        f"before this page could be drawn again. Draw it with `{draw}`."
+    )
+    body = f"{title}\n\n{note}\n{rest}".rstrip("\n").removesuffix(MARKER).rstrip("\n") + "\n"
+    write_page(path, body, old=text)
+    return True
