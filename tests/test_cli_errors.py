@@ -885,7 +885,7 @@ def test_report_says_which_tables_lack_their_provenance(capsys, tmp_path):
     (tmp_path / "data" / "sph_runs.csv").write_text("a\n1\n")
     code, _, err = run(capsys, "report", "--output-dir", tmp_path)
     assert code == 1 and "holds sph tables without their provenance" in err
-    assert "run `replication sph` again" in err and "no report data under" in err
+    assert f"run `replication sph --output-dir {tmp_path}` again" in err and "no report data under" in err
 
 
 def test_ctrl_c_while_the_command_line_is_parsed_is_one_line(capsys, monkeypatch):

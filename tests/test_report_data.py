@@ -287,6 +287,7 @@ def test_a_data_file_changed_after_the_save_is_refused_by_name(capsys, quick_rep
     import json
 
     from replication.cli import main
+    from replication.report.store import rerun_into
 
     out = quick_reports_copy
     sets = sorted((out / "data").glob("*_provenance.json"))
@@ -304,7 +305,8 @@ def test_a_data_file_changed_after_the_save_is_refused_by_name(capsys, quick_rep
         err = capsys.readouterr().err
         assert f"{path} differs from the file saved with {provenance.name}" in err and err.count("\n") == 1
         command = json.loads(provenance.read_text())["command"]  # the run's own, settings included
-        assert command.startswith("replication ") and f"run `{command}` again" in err
+        again = rerun_into(command, out)  # into the directory reported, whatever the run named
+        assert command.startswith("replication ") and f"run `{again}` again" in err
         assert {p.name: p.read_bytes() for p in out.glob("*.md")} == pages  # nothing drawn
         path.write_bytes(original)
     assert main(["report", "--output-dir", str(out)]) == 0  # the files as saved: drawn as before

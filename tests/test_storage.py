@@ -130,9 +130,33 @@ def test_a_data_set_records_the_checksums_of_its_files_and_reading_checks_them(t
     (data / "x_a.csv").write_text("a\n1\n")
     with pytest.raises(
         ReportDataError,
-        match=r"x_a.csv differs from the file saved with x_provenance.json .*run `replication x` again",
+        match=r"x_a.csv differs from the file saved with x_provenance.json .*"
+        r"run `replication x --output-dir \S+` again",
     ):
         read_provenance(data, "x_provenance.json", "replication x")
     record.pop("data_files")  # a set saved before checksums were recorded: read as it is
     (data / "x_provenance.json").write_text(json.dumps(record))
     assert read_provenance(data, "x_provenance.json", "replication x") == record
+
+
+@pytest.mark.parametrize(
+    ("command", "again"),
+    [
+        ("replication table1", "replication table1 --output-dir 'my reports'"),
+        (
+            "replication table1 --quick --output-dir /elsewhere",
+            "replication table1 --quick --output-dir 'my reports'",
+        ),
+        (
+            "replication sph --output-dir=/x --workers 2",
+            "replication sph --workers 2 --output-dir 'my reports'",
+        ),
+        ("replication sph 'unclosed", "replication sph 'unclosed"),  # not a command line: as it is
+    ],
+)
+def test_a_rerun_writes_into_the_directory_reported(command, again):
+    # the committed validation study records --output-dir /work/wt-study/reports, a directory of
+    # the machine that ran it: "run ... again" named it for a copy of the reports anywhere
+    from replication.report.store import rerun_into
+
+    assert rerun_into(command, "my reports") == again

@@ -175,7 +175,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     from replication.report.casestudy import render_casestudy
     from replication.report.index import update_readme
     from replication.report.pages import check_pages
-    from replication.report.store import recover_data_sets
+    from replication.report.store import recover_data_sets, rerun_into
     from replication.report.table1 import render_table1
 
     out = Path(args.output_dir or DEFAULT_DIR)
@@ -234,9 +234,11 @@ def _cmd_report(args: argparse.Namespace) -> int:
     if (out / "data" / "casestudy_provenance.json").is_file():
         written.append(_render(render_casestudy, "casestudy", out))
     for experiment, command in _without_provenance(out / "data"):
+        again = rerun_into(f"replication {command}", out)
         print(
             f"warning: {out / 'data'} holds {experiment} tables without their provenance (a save that was "
-            f"cut short), so no {experiment} report was drawn from them: run `replication {command}` again",
+            f"cut short, or the file was removed), so no {experiment} report was drawn from them: run "
+            f"`{again}` again",
             file=sys.stderr,
         )
     if not written:

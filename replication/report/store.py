@@ -39,6 +39,7 @@ __all__ = [
     "read_csv",
     "read_json",
     "read_provenance",
+    "rerun_into",
     "write_csv",
     "write_json",
 ]
@@ -167,6 +168,33 @@ def _record_files(staging: Path, provenance: str, staged: list[Path]) -> None:
     write_json(record, staging / provenance)
 
 
+def rerun_into(command: str, out: str | os.PathLike[str]) -> str:
+    """``command`` (a recorded invocation) with its ``--output-dir`` made ``out``.
+
+    The committed validation study records ``--output-dir /work/wt-study/reports``, a
+    directory of the machine that ran it: "run ... again" named it for a copy of the reports
+    anywhere. Without an ``--output-dir`` the command writes to its default directory, which
+    need not be ``out`` either, so one is added. A command that cannot be split is returned as
+    it is.
+    """
+    import shlex
+
+    try:
+        words = shlex.split(command)
+    except ValueError:
+        return command
+    kept: list[str] = []
+    skip = False
+    for word in words:
+        if skip:
+            skip = False
+        elif word == "--output-dir":
+            skip = True
+        elif not word.startswith("--output-dir="):
+            kept.append(word)
+    return shlex.join([*kept, "--output-dir", str(out)])
+
+
 def read_provenance(data: str | os.PathLike[str], provenance: str, command: str) -> dict[str, Any]:
     """The provenance record of a data set, after checking its files against the checksums it
     records (a set saved before they were recorded is read as it is).
@@ -176,7 +204,8 @@ def read_provenance(data: str | os.PathLike[str], provenance: str, command: str)
     ReportDataError
         A file of the set is missing or differs from what was saved (a lost or edited row):
         the report would draw other numbers than the run computed. The message names the
-        command the provenance records (the run's own, settings included), else ``command``.
+        command the provenance records (the run's own, settings included), else ``command``,
+        writing into the directory that holds ``data`` (:func:`rerun_into`).
     """
     data = Path(data)
     record = read_json(data / provenance)
@@ -185,6 +214,7 @@ def read_provenance(data: str | os.PathLike[str], provenance: str, command: str)
         return record
     if isinstance(record.get("command"), str) and record["command"].startswith("replication "):
         command = record["command"]  # the run's own invocation, its settings included
+    command = rerun_into(command, data.parent)
     if not isinstance(files, dict):
         raise ReportDataError(
             f"{data / provenance}: its {DATA_FILES} record is not a mapping; run `{command}` again"
