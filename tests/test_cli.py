@@ -346,6 +346,20 @@ def test_compare_says_when_the_tests_compare_rounding_noise(capsys, tmp_path):
     )
 
 
+def test_compare_says_a_p_value_that_underflowed_is_below_the_smallest_double(capsys, tmp_path):
+    # a surface of 1600 lattice points whose mean difference is far inside the TOST margin:
+    # both one-sided p-values underflow to 0.0, which printed as "p = 0"
+    x, y = (a.ravel().astype(float) for a in np.meshgrid(np.arange(40), np.arange(40)))
+    z = 5 * np.sin(x / 3) + 3 * np.cos(y / 4) + 0.2 * x + np.random.default_rng(1).integers(0, 3, x.size)
+    save_cloud(np.column_stack([x, y, z]), tmp_path / "c.csv")
+    code, out, _ = run(capsys, "compare", str(tmp_path / "c.csv"), "--json")
+    tost = [r["statistics"]["tost_p"] for r in json.loads(out)["pairings"].values()]
+    assert code == 0 and 0.0 in tost  # the case: the JSON keeps the number as computed
+    code, out, _ = run(capsys, "compare", str(tmp_path / "c.csv"))
+    assert code == 0 and "p < 2.2e-308 -> equivalent" in out and "p = 0 " not in out
+    assert "p = 0.8984  -> fails to reject" in out  # the others as before
+
+
 def test_compare_json_has_everything(capsys, cloud_file):
     code, out, _ = run(capsys, "compare", str(cloud_file), "--json", "--margin", "0.1")
     assert code == 0

@@ -56,9 +56,9 @@ def _format_stats(name: str, pairs: Any, st: Any) -> list[str]:
     )  # fmt: skip
     return [
         head,
-        f"  paired t-test      t = {st.t_test.statistic:.4g}, p = {st.t_test.p_value:.4g}  -> "
+        f"  paired t-test      t = {st.t_test.statistic:.4g}, p {_p(st.t_test.p_value, '.4g')}  -> "
         f"{reading(st.t_test.similar)}",
-        f"  Wilcoxon test      W = {st.wilcoxon.statistic:.4g}, p = {st.wilcoxon.p_value:.4g}  -> "
+        f"  Wilcoxon test      W = {st.wilcoxon.statistic:.4g}, p {_p(st.wilcoxon.p_value, '.4g')}  -> "
         f"{reading(st.wilcoxon.similar)}",
         f"  paper's verdict    {st.paper_verdict} ({why}; 'similar' needs both to fail to reject)",
         *rounding,
@@ -66,10 +66,20 @@ def _format_stats(name: str, pairs: Any, st: Any) -> list[str]:
         f"Cohen's d_z {st.cohens_dz:.3g}" + (" (rounding noise)" if st.rounding_only else ""),
         f"  deviation          RMS {st.rms:.4g} ({st.rms_percent:.1f}% of depth range), "
         f"max {st.max_abs:.4g} ({st.max_abs_percent:.1f}%)",
-        f"  normality          {st.normality_test} p = {st.normality_p:.3g} -> use the {st.recommended_test}",
+        f"  normality          {st.normality_test} p {_p(st.normality_p, '.3g')} -> "
+        f"use the {st.recommended_test}",
         f"  equivalence (TOST) margin +-{st.margin:.4g} ({100 * st.margin_fraction:g}% of range): "
-        f"p = {st.tost_p:.3g} -> {'equivalent' if st.equivalent else 'NOT shown equivalent'}",
+        f"p {_p(st.tost_p, '.3g')} -> {'equivalent' if st.equivalent else 'NOT shown equivalent'}",
     ]
+
+
+#: The smallest positive normal double: a p-value of 0.0 underflowed below it.
+_TINY = 2.2250738585072014e-308
+
+
+def _p(value: float, spec: str) -> str:
+    """ "= 0.0312", or "< 2.2e-308" for a p-value that underflowed to 0 (it is not zero)."""
+    return f"< {_TINY:.2g}" if value == 0 else f"= {value:{spec}}"
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
