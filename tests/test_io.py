@@ -845,6 +845,32 @@ def test_a_fifo_is_not_replaced_by_an_output(surface, tmp_path):
     assert all(path.is_fifo() for path in tmp_path.iterdir()) and len(list(tmp_path.iterdir())) == 3
 
 
+def test_an_output_through_an_open_descriptor_is_refused(tmp_path):
+    # `-o /dev/stdout >> log` renamed the surface over log, the file the shell had opened:
+    # its earlier lines were gone; through a pipe, the refusal named "/proc/NNN/fd"
+    import subprocess
+    import sys
+
+    log = tmp_path / "log.txt"
+    log.write_text("earlier lines\n")
+    (tmp_path / "out.vtk").symlink_to("/dev/stdout")
+    for name in ("/dev/stdout", "/dev/fd/1", "/proc/self/fd/1", str(tmp_path / "out.vtk")):
+        command = [sys.executable, "-m", "replication", "adt", "--random", "9", "-o", name, "--format", "vtk"]
+        with open(log, "a") as stream:
+            done = subprocess.run(command, stdout=stream, stderr=subprocess.PIPE, text=True, check=False)
+        assert done.returncode == 1 and log.read_text() == "earlier lines\n", name
+        assert f"output path {name} names an open file descriptor" in done.stderr
+        assert done.stderr.count("\n") == 1
+    from replication.io.atomic import check_output_path
+
+    with pytest.raises(
+        OutputError, match=r"out.vtk names an open file descriptor \(/dev/stdout\), not a file"
+    ):
+        check_output_path(tmp_path / "out.vtk")
+    (tmp_path / "fd").mkdir()  # a directory of that name elsewhere is anyone's
+    assert check_output_path(tmp_path / "fd" / "1.vtk") == tmp_path / "fd" / "1.vtk"
+
+
 # ---- report data sets ------------------------------------------------------------------------------
 
 

@@ -16,6 +16,7 @@ import errno
 import glob
 import hashlib
 import os
+import re
 import secrets
 import shutil
 import signal
@@ -80,6 +81,13 @@ def _directory_name(name: str | bytes) -> bool:
 def _check_output_path(path: Path) -> Path:
     given = path
     via = ""
+    descriptor = _open_descriptor(path)
+    if descriptor is not None:
+        through = "" if descriptor == os.path.abspath(given) else f" ({descriptor})"
+        raise OutputError(
+            f"output path {given} names an open file descriptor{through}, not a file: writing it would "
+            "replace whatever it is open on (a log opened with >>); choose a file name"
+        )
     if path.is_symlink():
         try:
             path = path.resolve()
@@ -96,6 +104,25 @@ def _check_output_path(path: Path) -> Path:
     if path.exists() and not path.is_file():  # a FIFO, socket or device: a rename would replace it
         raise OutputError(f"output path {given} exists and is not a regular file{via}: choose a file name")
     return path
+
+
+def _open_descriptor(path: Path) -> str | None:
+    """The descriptor link (``/proc/self/fd/1``) that ``path`` is or leads to, or None.
+
+    ``-o /dev/stdout`` resolved to the file the shell had opened (``>> log``), which the rename
+    of an atomic write replaced whole; a pipe resolved to a name that is no file and was
+    refused as "the directory /proc/NNN/fd cannot hold new files".
+    """
+    name = os.path.abspath(path)
+    for _ in range(40):  # the system's own limit on a chain of links
+        if re.fullmatch(r"/dev/(std(in|out|err)|fd/.*)|/proc/[^/]+/fd/.*", name):
+            return name
+        try:
+            target = os.readlink(name)
+        except OSError:  # not a link (or gone): the end of the chain
+            return None
+        name = os.path.normpath(os.path.join(os.path.dirname(name), target))
+    return None
 
 
 #: This machine, in the temporary names: a write is abandoned when its process no longer runs
