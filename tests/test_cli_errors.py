@@ -883,9 +883,25 @@ def test_report_says_which_tables_lack_their_provenance(capsys, tmp_path):
     # a save killed while it published its files leaves them without provenance: say so, do not skip silently
     (tmp_path / "data").mkdir()
     (tmp_path / "data" / "sph_runs.csv").write_text("a\n1\n")
+    (tmp_path / "data" / "table1_scale.csv").write_text("a\n1\n")
     code, _, err = run(capsys, "report", "--output-dir", tmp_path)
-    assert code == 1 and "holds sph tables without their provenance" in err
-    assert f"run `replication sph --output-dir {tmp_path}` again" in err and "no report data under" in err
+    # one line: it said "run `replication sph` again", then "run `replication reproduce` first"
+    assert code == 1 and err.count("\n") == 1, err
+    assert f"no report drawn: {tmp_path}/data holds table1 and sph tables without their provenance" in err
+    assert (
+        f"run `replication table1 --output-dir {tmp_path}` and `replication sph --output-dir {tmp_path}` "
+        "again" in err
+    )
+    import shutil
+    from pathlib import Path
+
+    committed = Path(__file__).resolve().parents[1] / "reports" / "data"
+    for path in committed.glob("casestudy_*"):  # a data set that is drawn: the others are a warning
+        shutil.copy(path, tmp_path / "data" / path.name)
+    (tmp_path / "data" / "table1_scale.csv").unlink()
+    code, _, err = run(capsys, "report", "--output-dir", tmp_path)
+    assert code == 0 and err.startswith(f"warning: {tmp_path}/data holds sph tables without their provenance")
+    assert f"run `replication sph --output-dir {tmp_path}` again" in err
 
 
 def test_ctrl_c_while_the_command_line_is_parsed_is_one_line(capsys, monkeypatch):

@@ -233,12 +233,18 @@ def _cmd_report(args: argparse.Namespace) -> int:
         written.append(_render(render_jet_validation, "validate-jet", out))
     if (out / "data" / "casestudy_provenance.json").is_file():
         written.append(_render(render_casestudy, "casestudy", out))
-    for experiment, command in _without_provenance(out / "data"):
-        again = rerun_into(f"replication {command}", out)
+    orphans = [(experiment, rerun_into(f"replication {command}", out))
+               for experiment, command in _without_provenance(out / "data")]  # fmt: skip
+    why = "a save that was cut short, or the file was removed"
+    if not written and orphans:  # one line, not a warning beside "run reproduce first"
+        raise ReportDataError(
+            f"no report drawn: {out / 'data'} holds {' and '.join(e for e, _ in orphans)} tables without "
+            f"their provenance ({why}); run " + " and ".join(f"`{again}`" for _, again in orphans) + " again"
+        )
+    for experiment, again in orphans:
         print(
-            f"warning: {out / 'data'} holds {experiment} tables without their provenance (a save that was "
-            f"cut short, or the file was removed), so no {experiment} report was drawn from them: run "
-            f"`{again}` again",
+            f"warning: {out / 'data'} holds {experiment} tables without their provenance ({why}), so no "
+            f"{experiment} report was drawn from them: run `{again}` again",
             file=sys.stderr,
         )
     if not written:
