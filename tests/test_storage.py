@@ -152,6 +152,16 @@ def test_a_data_set_records_the_checksums_of_its_files_and_reading_checks_them(t
             "replication sph --workers 2 --output-dir 'my reports'",
         ),
         ("replication sph 'unclosed", "replication sph 'unclosed"),  # not a command line: as it is
+        # a case study's run directory holds checkpoints: without --resume it is refused
+        (
+            "replication casestudy --seed 5 --run-dir r",
+            "replication casestudy --seed 5 --run-dir r --resume --output-dir 'my reports'",
+        ),
+        (
+            "replication casestudy --run-dir=r --resume",
+            "replication casestudy --run-dir=r --resume --output-dir 'my reports'",
+        ),
+        ("replication casestudy --seed 5", "replication casestudy --seed 5 --output-dir 'my reports'"),
     ],
 )
 def test_a_rerun_writes_into_the_directory_reported(command, again):

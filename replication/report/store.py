@@ -174,8 +174,9 @@ def rerun_into(command: str, out: str | os.PathLike[str]) -> str:
     The committed validation study records ``--output-dir /work/wt-study/reports``, a
     directory of the machine that ran it: "run ... again" named it for a copy of the reports
     anywhere. Without an ``--output-dir`` the command writes to its default directory, which
-    need not be ``out`` either, so one is added. A command that cannot be split is returned as
-    it is.
+    need not be ``out`` either, so one is added. A case study given its ``--run-dir`` gets
+    ``--resume`` (without it the run directory, holding checkpoints, is refused). A command
+    that cannot be split is returned as it is.
     """
     import shlex
 
@@ -192,6 +193,11 @@ def rerun_into(command: str, out: str | os.PathLike[str]) -> str:
             skip = True
         elif not word.startswith("--output-dir="):
             kept.append(word)
+    # a case study's run directory holds its checkpoints: run again, it is refused without
+    # --resume, which saves the finished runs' data again from them
+    resume = kept[1:2] == ["casestudy"] and any(w.split("=")[0] == "--run-dir" for w in kept)
+    if resume and "--resume" not in kept:
+        kept.append("--resume")
     return shlex.join([*kept, "--output-dir", str(out)])
 
 
