@@ -31,6 +31,14 @@ def write_study(out, ga_sph, bucket_sph=1.89, surrogate=None):
         frame = pd.DataFrame([{"scope": "held out", "n": 3, "spearman": surrogate}])
         write_csv(frame, data / "jet_validation_surrogate_agreement.csv")
     write_csv(pd.DataFrame([{"run": 0, "best_N": 4.61}]), data / "casestudy_runs.csv")
+    (data / "jet_validation_provenance.json").write_text("{}")  # a saved study has one (see below)
+
+
+def test_tables_without_their_provenance_are_not_read(tmp_path):
+    write_study(tmp_path, ga_sph=2.0)
+    assert validation_headline(tmp_path)
+    (tmp_path / "data" / "jet_validation_provenance.json").unlink()  # a save cut short, a removed file
+    assert validation_headline(tmp_path) == []
 
 
 def test_without_the_study_the_section_says_the_numbers_are_the_models_alone(tmp_path):

@@ -854,7 +854,15 @@ def test_an_output_through_an_open_descriptor_is_refused(tmp_path):
     log = tmp_path / "log.txt"
     log.write_text("earlier lines\n")
     (tmp_path / "out.vtk").symlink_to("/dev/stdout")
-    for name in ("/dev/stdout", "/dev/fd/1", "/proc/self/fd/1", str(tmp_path / "out.vtk")):
+    (tmp_path / "fds").symlink_to("/proc/self/fd")  # a link to the directory of descriptors
+    names = [
+        "/dev/stdout",
+        "/dev/fd/1",
+        "/proc/self/fd/1",
+        str(tmp_path / "out.vtk"),
+        str(tmp_path / "fds" / "1"),
+    ]
+    for name in names:
         command = [sys.executable, "-m", "replication", "adt", "--random", "9", "-o", name, "--format", "vtk"]
         with open(log, "a") as stream:
             done = subprocess.run(command, stdout=stream, stderr=subprocess.PIPE, text=True, check=False)

@@ -101,13 +101,13 @@ def test_which_data_sets_a_run_may_replace(tmp_path, saved, run, refused):
 @pytest.mark.parametrize(
     ("command", "prefixes", "kind"),
     [
-        (["table1", "--quick"], ["table1"], "Table 1 run"),
-        (["reproduce", "--quick"], ["table1", "casestudy"], "Table 1 run"),
-        (["sph", "--quick"], ["sph"], "SPH study"),
-        (["validate-jet", "--quick"], ["jet_validation"], "jet-model validation study"),
-        (["casestudy", "--quick"], ["casestudy"], "case study"),
-        (["casestudy", "--runs", "1", "--generations", "2"], ["casestudy"], "case study"),
-        (["casestudy", "--solver", "sph"], ["casestudy"], "case study"),
+        (["table1", "--quick"], ["table1"], "a Table 1 run"),
+        (["reproduce", "--quick"], ["table1", "casestudy"], "a Table 1 run"),
+        (["sph", "--quick"], ["sph"], "an SPH study"),
+        (["validate-jet", "--quick"], ["jet_validation"], "a jet-model validation study"),
+        (["casestudy", "--quick"], ["casestudy"], "a case study"),
+        (["casestudy", "--runs", "1", "--generations", "2"], ["casestudy"], "a case study"),
+        (["casestudy", "--solver", "sph"], ["casestudy"], "a case study"),
     ],
 )
 def test_a_run_of_other_settings_does_not_replace_a_saved_data_set(
@@ -123,7 +123,7 @@ def test_a_run_of_other_settings_does_not_replace_a_saved_data_set(
     assert main([*command, "--output-dir", "mine"]) == 2
     err = capsys.readouterr().err
     assert len(err.splitlines()) == 1, err
-    assert f"--output-dir mine holds a {kind} with the paper's settings (data/" in err
+    assert f"--output-dir mine holds {kind} with the paper's settings (data/" in err
     assert "name another directory, or move mine/data/" in err and "_* away first" in err
     assert _contents(tmp_path) == before  # refused before any work: no run directory, no page
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mine"]
@@ -193,6 +193,12 @@ def test_report_does_not_fill_a_checkout_s_readme_from_other_reports(
     assert len(err.splitlines()) == 1
     assert "--readme README.md is a checkout's README, whose headline states the numbers of its" in err
     assert (tmp_path / "README.md").read_text() == readme
+    (tmp_path / "link.md").symlink_to("README.md")  # a link to it: its target is what is written
+    assert main(["report", "--output-dir", "reports-quick", "--readme", "link.md"]) == 2
+    assert "--readme link.md is a checkout's README" in capsys.readouterr().err
+    assert main(["report", "--output-dir", "reports-quick", "--readme", "/dev/stdout"]) == 1
+    assert "--readme /dev/stdout names an open file descriptor" in capsys.readouterr().err
+    assert (tmp_path / "README.md").read_text() == readme
     shutil.copy(tmp_path / "README.md", tmp_path / "copy.md")  # a copy is anyone's to fill
     assert main(["report", "--output-dir", "reports-quick", "--readme", "copy.md"]) == 0
     assert "Not the paper's settings" in (tmp_path / "copy.md").read_text()
@@ -207,3 +213,88 @@ def test_quick_page_wording():
     assert _span(pd.Series([11.2, 26.0]), ".0f") == "11-26"
     assert _exponent(1.04, float("nan")) == "1.04 (too few sizes for a standard error)"  # was "± –"
     assert _exponent(1.04, 0.012) == "1.04 ± 0.01"
+
+
+_KILLED_WHILE_PUBLISHING = """
+import os, signal, sys
+from pathlib import Path
+from replication.report import store
+real, moved = store._publish, []
+def dying(source, target):
+    if len(moved) == 1:
+        os.kill(os.getpid(), signal.SIGKILL)
+    moved.append(target)
+    real(source, target)
+store._publish = dying
+with store.data_set(Path(sys.argv[1]), "table1_provenance.json") as staged:
+    (staged / "table1_a.csv").write_text("paper a\\n")
+    (staged / "table1_b.csv").write_text("paper b\\n")
+    (staged / "table1_provenance.json").write_text('{"config": {"quick": false}}\\n')
+"""
+
+
+def test_a_save_killed_while_it_publishes_is_the_data_set_a_run_may_not_replace(
+    tmp_path, monkeypatch, capsys
+):
+    # a run of the paper's settings killed while it published over a quick run's data left no
+    # provenance: the check saw nothing in the way, and a quick run finished the killed save
+    # and put its own data over it without a word
+    import subprocess
+    import sys
+
+    monkeypatch.chdir(tmp_path)
+    data = tmp_path / "mine" / "data"
+    _provenance(data, "table1", config={"quick": True})
+    (data / "table1_a.csv").write_text("quick a\n")
+    killed = subprocess.run([sys.executable, "-c", _KILLED_WHILE_PUBLISHING, str(data)], check=False)
+    assert killed.returncode == -9 and not (data / "table1_provenance.json").exists()
+    assert main(["table1", "--quick", "--output-dir", "mine"]) == 2
+    assert "holds a Table 1 run with the paper's settings" in capsys.readouterr().err
+    assert (data / "table1_a.csv").read_text() == "paper a\n"  # the killed save, finished
+
+
+def test_sph_settings_of_a_rescored_case_study_are_its_settings(tmp_path):
+    from replication.report.settings import sph_option
+
+    base = {"quick": True, "config": {}}
+    _provenance(tmp_path, "casestudy", **base, rescore={"top": 2, "settings": {"particle_radius": 0.0015}})
+    rescored = "--rescore sph (--top 2, --particle-radius 1.5 mm)"
+    assert saved_settings(tmp_path, "casestudy") == (*QUICK, rescored)
+    # another top or radius is another run; the defaults are named by the option alone
+    assert replacement_refused(tmp_path, "casestudy", (*QUICK, "--rescore sph (--top 1)")) is not None
+    assert replacement_refused(tmp_path, "casestudy", saved_settings(tmp_path, "casestudy")) is None
+    assert sph_option("--solver sph", None) == "--solver sph"
+    from replication.casestudy.sph.settings import SPHSettings
+
+    assert sph_option("--solver sph", SPHSettings().as_dict(), 5) == "--solver sph"
+
+
+@pytest.mark.parametrize(
+    ("command", "options"),
+    [
+        ("replication validate-jet --rebuild-surfaces --cache-dir /c --output-dir /r", ()),
+        ("replication validate-jet --timeout 60 --ga-run-dir 'a b'", ("--timeout 60", "--ga-run-dir a b")),
+        ("replication validate-jet --timeout=60.0 --from-cache", ()),  # nothing simulated: no timeout
+        ("replication validate-jet --ga-run-dir=ga", ("--ga-run-dir ga",)),
+    ],
+)
+def test_a_validation_study_s_other_settings_are_read_from_its_command(tmp_path, command, options):
+    # a study of another GA's winners replaced the committed one without a word, labelled the paper's
+    _provenance(tmp_path, "jet_validation", quick=False, config={}, command=command)
+    assert saved_settings(tmp_path, "jet_validation") == options
+    assert (replacement_refused(tmp_path, "jet_validation", ()) is None) == (options == ())
+
+
+def test_a_report_whose_data_lost_their_provenance_is_marked_and_left_out_of_the_headline(
+    quick_reports, tmp_path, capsys
+):
+    shutil.copytree(quick_reports, tmp_path / "q")
+    (tmp_path / "q" / "data" / "table1_provenance.json").unlink()  # a removed file
+    assert main(["report", "--output-dir", str(tmp_path / "q")]) == 0
+    assert "holds table1 tables without their provenance" in capsys.readouterr().err
+    index = (tmp_path / "q" / "index.md").read_text()
+    line = next(line for line in index.splitlines() if line.startswith("- [Table 1 and Fig. 6](table1.md)"))
+    assert line.endswith(
+        "(*out of date*: its data under data/ have no provenance, so it is not drawn from them)"
+    )
+    assert "**Storage**" not in index and "**Case study**" in index  # unchecked numbers are not headlines

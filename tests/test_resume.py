@@ -412,7 +412,10 @@ def test_an_earlier_run_s_page_left_beside_new_data_says_it_is_out_of_date(
         "before this page could be drawn again. Draw it with `replication report --output-dir out`."
     )
     assert marked.replace(f"{note}\n\n", "", 1) == first and is_ours(page)
+    # the index is drawn after the page: its headline is the earlier run's too
+    assert (tmp_path / "out" / "index.md").read_text().splitlines()[2] == note
     monkeypatch.undo()
     monkeypatch.chdir(tmp_path)
     assert main(["report", "--output-dir", "out"]) == 0
     assert OUT_OF_DATE not in page.read_text() and "r2" in page.read_text()
+    assert OUT_OF_DATE not in (tmp_path / "out" / "index.md").read_text()

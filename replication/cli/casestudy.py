@@ -267,11 +267,16 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     check_pages(out, what, ("casestudy.md", "index.md"))
     from replication.experiments.casestudy import differences_from_paper, quick_ga_config
     from replication.io.locks import hold_reports_dir
+    from replication.report.settings import sph_option as sph_words
 
     hold_reports_dir(out, what)  # (two runs into one directory left one's page over the other's data)
     # the run's settings as its provenance will record them (a saved case study of others stays)
     settings = ["--quick"] if config == quick_ga_config() else differences_from_paper(config.as_dict())
-    check_replaces_alike(out, what, [*settings, *([sph_option] if sph_option else [])], ["casestudy"])
+    if solver is not None:
+        settings.append(sph_words("--solver sph", solver["settings"]))
+    elif rescored:
+        settings.append(sph_words("--rescore sph", rescore.settings.as_dict(), rescore.top))
+    check_replaces_alike(out, what, settings, ["casestudy"])
 
     hint = ["replication", "casestudy", "--run-dir", str(run_dir), "--resume"]
     if out.resolve() != default_out.resolve():

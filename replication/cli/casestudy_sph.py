@@ -284,10 +284,11 @@ def check_fitness_record(run_dir: Any, record: dict[str, Any] | None, resume: bo
                 return "the thin-sheet model"
             changed = {k: v for k, v in r.get("settings", {}).items() if v != defaults.get(k)}
             return (
-                "SPH (" + (", ".join(_as_given(k, v) for k, v in sorted(changed.items())) or "defaults") + ")"
+                "SPH (" + (", ".join(as_given(k, v) for k, v in sorted(changed.items())) or "defaults") + ")"
             )
 
         from replication.casestudy.sph.settings import SPHSettings
+        from replication.report.settings import as_given
 
         defaults = SPHSettings().as_dict()
 
@@ -295,19 +296,6 @@ def check_fitness_record(run_dir: Any, record: dict[str, Any] | None, resume: bo
             f"{run_dir} holds a run scored by {name(recorded)}, not {name(record)}: resume it with its "
             "own --solver and SPH options, or start a new run directory"
         )
-
-
-#: The SPH settings the command line gives in other units than the record's SI ones.
-_OPTION_UNITS = {"particle_radius": ("--particle-radius", 1e3, "mm"), "duration": ("--duration", 1e3, "ms")}
-
-
-def _as_given(name: str, value: Any) -> str:
-    """A recorded SPH setting as the command line gives it (``--duration 15 ms``, not
-    ``duration 0.015``), or by its name when the command line has no option for it."""
-    if name in _OPTION_UNITS and isinstance(value, (int, float)):
-        option, scale, unit = _OPTION_UNITS[name]
-        return f"{option} {value * scale:g} {unit}"
-    return f"{name} {value}"
 
 
 def write_fitness_record(run_dir: Any, record: dict[str, Any] | None) -> None:

@@ -431,15 +431,14 @@ def drawing_saved_data(out: Any, page: str) -> Iterator[None]:
 
 
 def _mark_if_not_drawn(path: Any, earlier: bytes | None, draw: str) -> None:
-    """Mark the page at ``path`` out of date when it is still the earlier run's (``earlier``)."""
+    """Mark the page at ``path`` out of date when it is still the earlier run's (``earlier``),
+    and the index beside it, which is drawn after the page: its headline is the earlier run's."""
     from replication.report.pages import mark_out_of_date
 
-    if earlier is None:
-        return
     try:
-        if path.read_bytes() != earlier:  # drawn anew (or gone): nothing to mark
-            return
-        mark_out_of_date(path, draw)
+        if earlier is not None and path.read_bytes() == earlier:  # (drawn anew, or gone: not marked)
+            mark_out_of_date(path, draw)
+        mark_out_of_date(path.parent / "index.md", draw)
     except (OSError, ReplicationError):  # the disk that failed the drawing: the message says it
         return
 

@@ -186,14 +186,20 @@ def check_replaces_alike(out: str | Path, what: str, run: Sequence[str], prefixe
     """
     from replication.errors import UsageError
     from replication.report.settings import replacement_refused
+    from replication.report.store import recover_data_sets
 
-    for prefix in prefixes:
-        why = replacement_refused(Path(out) / "data", prefix, run)
-        if why is not None:
-            raise UsageError(
-                f"{what} {out} {why}: name another directory, or move {Path(out) / 'data' / prefix}_* "
-                "away first"
-            )
+    data = Path(out) / "data"
+    if prefixes and data.is_dir():  # a save killed while it published: its set, not the one it replaced
+        recover_data_sets(data)
+    refused = [(prefix, why) for prefix in prefixes
+               if (why := replacement_refused(data, prefix, run)) is not None]  # fmt: skip
+    if refused:
+        moved = " and ".join(f"{data / prefix}_*" for prefix, _ in refused)
+        raise UsageError(
+            f"{what} {out} "
+            + "; it ".join(why for _, why in refused)
+            + f": name another directory, or move {moved} away first"
+        )
 
 
 def finish_reports(out: Path) -> list[Path]:

@@ -111,6 +111,10 @@ def _check_readme(readme: str, out: Path) -> Path:
     from replication.report.index import END, START
 
     path = Path(readme)
+    from replication.io.atomic import open_descriptor
+
+    if open_descriptor(path) is not None:  # /dev/stdout >> copy.md: the rename replaced copy.md
+        raise InputError(f"--readme {path} names an open file descriptor, not a README file")
     if not path.exists():
         raise InputError(f"--readme {path}: no such file")
     if not path.is_file():
@@ -145,8 +149,9 @@ def _check_not_checkout_readme(readme: Path, out: Path) -> None:
     from replication.errors import UsageError
     from replication.io.paths import same_file
 
-    beside = checkout_readme(readme.parent / DEFAULT_DIR)
-    if beside is None or not same_file(beside, readme):
+    target = readme.resolve()  # a link's target is what is written (fill_block)
+    beside = checkout_readme(target.parent / DEFAULT_DIR)
+    if beside is None or not same_file(beside, target):
         return
     ours = checkout_readme(out)
     if ours is not None and same_file(ours, readme):

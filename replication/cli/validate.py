@@ -32,10 +32,8 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     custom = _custom_settings(args)
     _check_custom_run(args, custom)
     out = planned_output_dir(args, ("jet_validation.md", "index.md"), custom=custom)
-    # by --quick alone: a saved study does not record --timeout or --ga-run-dir apart from its
-    # command line, and its simulations stay in the SPH cache, so a replaced study is redrawn in minutes
     what = "--output-dir" if args.output_dir else "the reports directory"
-    check_replaces_alike(out, what, ["--quick"] if args.quick else [], ["jet_validation"])
+    check_replaces_alike(out, what, [*(["--quick"] if args.quick else []), *custom], ["jet_validation"])
     start = time.perf_counter()
     results, path = run_validation_report(args, out)
     table = results.surfaces

@@ -39,6 +39,7 @@ __all__ = [
     "check_output_path",
     "interrupt_deferred",
     "note_written",
+    "open_descriptor",
     "sync_directory",
     "writer_gone",
     "writer_tag",
@@ -81,7 +82,7 @@ def _directory_name(name: str | bytes) -> bool:
 def _check_output_path(path: Path) -> Path:
     given = path
     via = ""
-    descriptor = _open_descriptor(path)
+    descriptor = open_descriptor(path)
     if descriptor is not None:
         through = "" if descriptor == os.path.abspath(given) else f" ({descriptor})"
         raise OutputError(
@@ -106,7 +107,7 @@ def _check_output_path(path: Path) -> Path:
     return path
 
 
-def _open_descriptor(path: Path) -> str | None:
+def open_descriptor(path: Path) -> str | None:
     """The descriptor link (``/proc/self/fd/1``) that ``path`` is or leads to, or None.
 
     ``-o /dev/stdout`` resolved to the file the shell had opened (``>> log``), which the rename
@@ -115,7 +116,9 @@ def _open_descriptor(path: Path) -> str | None:
     """
     name = os.path.abspath(path)
     for _ in range(40):  # the system's own limit on a chain of links
-        if re.fullmatch(r"/dev/(std(in|out|err)|fd/.*)|/proc/[^/]+/fd/.*", name):
+        # the name, and the name in its directory's real place (a link d -> /proc/self/fd, then d/1)
+        real = os.path.join(os.path.realpath(os.path.dirname(name)), os.path.basename(name))
+        if any(re.fullmatch(r"/dev/(std(in|out|err)|fd/.*)|/proc/.+/fd/[^/]*", n) for n in (name, real)):
             return name
         try:
             target = os.readlink(name)

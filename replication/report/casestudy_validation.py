@@ -29,7 +29,11 @@ GOAL = 0.9
 
 def _load(out: Path) -> dict[str, pd.DataFrame] | None:
     data = out / "data"
-    if not (data / "jet_validation_surfaces.csv").is_file():
+    # tables without their provenance (a save cut short, a removed file) are not drawn: unchecked
+    if (
+        not (data / "jet_validation_surfaces.csv").is_file()
+        or not (data / "jet_validation_provenance.json").is_file()
+    ):
         return None
     loaded = {"surfaces": read_csv(data / "jet_validation_surfaces.csv")}
     loaded["agreement"] = read_csv(data / "jet_validation_agreement.csv")

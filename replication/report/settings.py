@@ -9,7 +9,9 @@ of every data set that are not the paper's (:func:`settings_note`).
 A data set's settings are told in the words of the options that make them, as the commands
 already describe a run with other settings (:func:`replication.cli.outputs.check_not_committed`):
 ``()`` for the paper's, ``("--quick",)`` for a reduced run, or the differences from the paper's
-(the case study records its whole configuration; another solver is named by its option).
+(the case study records its whole configuration; another solver is named by its option with
+the SPH settings that differ from the defaults; the validation study's ``--timeout`` and
+``--ga-run-dir`` are read from the command line it records).
 
 Notes
 -----
@@ -19,11 +21,21 @@ Infrastructure for the reports of the paper's Table 1 (sections 4-5) and case st
 from __future__ import annotations
 
 import json
+import shlex
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["QUICK", "describe", "replacement_refused", "saved_settings", "settings_note"]
+__all__ = [
+    "QUICK",
+    "as_given",
+    "describe",
+    "replacement_refused",
+    "saved_settings",
+    "settings_note",
+    "sph_option",
+    "validation_options",
+]
 
 QUICK = ("--quick",)
 
@@ -34,6 +46,74 @@ TITLES = {
     "jet_validation": "jet-model validation study",
     "casestudy": "case study",
 }
+
+#: The SPH settings the command line gives in other units than the record's SI ones.
+_OPTION_UNITS = {"particle_radius": ("--particle-radius", 1e3, "mm"), "duration": ("--duration", 1e3, "ms")}
+
+
+def as_given(name: str, value: Any) -> str:
+    """A recorded SPH setting as the command line gives it (``--duration 15 ms``, not
+    ``duration 0.015``), or by its name when the command line has no option for it."""
+    if name in _OPTION_UNITS and isinstance(value, (int, float)):
+        option, scale, unit = _OPTION_UNITS[name]
+        return f"{option} {value * scale:g} {unit}"
+    return f"{name} {value}"
+
+
+def _plain(value: Any) -> Any:
+    """``value`` as JSON reads it back (tuples become lists), so a record and a run compare."""
+    return json.loads(json.dumps(value))
+
+
+def sph_option(option: str, settings: dict[str, Any] | None, top: int | None = None) -> str:
+    """``--rescore sph`` or ``--solver sph`` with the SPH settings that differ from the defaults
+    (and ``--top`` when not the default): ``--rescore sph (--top 2, --particle-radius 1.5 mm)``.
+
+    Two re-scorings of other SPH settings are other runs: one replaced the other's forces
+    without a word, and the index named both "--rescore sph"."""
+    from replication.casestudy.rescore import RescoreConfig
+    from replication.casestudy.sph.settings import SPHSettings
+
+    defaults = _plain(SPHSettings().as_dict())
+    ours = _plain(settings or {})
+    changed = [as_given(k, v) for k, v in sorted(ours.items()) if v != defaults.get(k)]
+    if top is not None and top != RescoreConfig().top:
+        changed.insert(0, f"--top {top}")
+    return option + (f" ({', '.join(changed)})" if changed else "")
+
+
+def validation_options(command: str, *, from_cache: bool = False) -> tuple[str, ...]:
+    """The options of a ``validate-jet`` command line that can make another study than the
+    committed one: ``--timeout`` (not the default, and not with ``--from-cache``, which
+    simulates nothing) and ``--ga-run-dir``, as :func:`replication.cli.validate._custom_settings`
+    names them."""
+    from replication.experiments.jet_validation import ValidationConfig
+
+    try:
+        words = shlex.split(command)
+    except ValueError:
+        return ()
+    given: dict[str, str] = {}
+    for k, word in enumerate(words):
+        name, eq, value = word.partition("=")
+        if name in ("--timeout", "--ga-run-dir"):
+            given[name] = value if eq else (words[k + 1] if k + 1 < len(words) else "")
+    options = []
+    simulates = not (from_cache or "--from-cache" in words)
+    try:
+        timeout = float(given["--timeout"]) if "--timeout" in given else None
+    except ValueError:
+        timeout = None
+    if simulates and timeout is not None and timeout != ValidationConfig().timeout:
+        options.append(f"--timeout {timeout:g}")
+    if "--ga-run-dir" in given:
+        options.append(f"--ga-run-dir {given['--ga-run-dir']}")
+    return tuple(options)
+
+
+def article(title: str) -> str:
+    """``title`` with its indefinite article ("an SPH study", "a case study")."""
+    return f"{'an' if title.startswith('SPH') else 'a'} {title}"
 
 
 def _record(data: Path, prefix: str) -> dict[str, Any] | None:
@@ -49,12 +129,20 @@ def _record(data: Path, prefix: str) -> dict[str, Any] | None:
 def _settings(prefix: str, record: dict[str, Any]) -> tuple[str, ...]:
     config = record.get("config") if isinstance(record.get("config"), dict) else {}
     quick = bool(record.get("quick", config.get("quick", False)))
+    if prefix == "jet_validation":
+        command = record.get("command") if isinstance(record.get("command"), str) else ""
+        return (*QUICK, *validation_options(command)) if quick else validation_options(command)
     if prefix != "casestudy":
         return QUICK if quick else ()
     from replication.experiments.casestudy import differences_from_paper
 
-    solver = [option for key, option in (("solver", "--solver sph"), ("rescore", "--rescore sph"))
-              if key in record]  # fmt: skip
+    solver = []
+    for key, option in (("solver", "--solver sph"), ("rescore", "--rescore sph")):
+        entry = record.get(key)
+        if isinstance(entry, dict):
+            solver.append(sph_option(option, entry.get("settings"), entry.get("top")))
+        elif key in record:
+            solver.append(option)
     return (*(QUICK if quick else differences_from_paper(config)), *solver)
 
 
@@ -95,14 +183,17 @@ def replacement_refused(data: str | Path, prefix: str, run: Sequence[str]) -> st
     str or None
         The reason as a predicate ("holds a Table 1 run with the paper's settings
         (data/table1_provenance.json) that a run with --quick would replace"), or None when
-        nothing is in the way.
+        nothing is in the way. A save killed while it published its files is finished first
+        (:func:`replication.report.store.recover_data_sets`): its provenance, not the one it
+        was replacing, is the data set's.
     """
     saved = saved_settings(data, prefix)
     if saved is None or saved == QUICK or saved == tuple(run):
         return None
+    where = f"{Path(data).name}/{prefix}_provenance.json"
     return (
-        f"holds a {TITLES[prefix]} with {describe(saved)} ({Path(data).name}/{prefix}_provenance.json) "
-        f"that a run with {describe(run)} would replace"
+        f"holds {article(TITLES[prefix])} with {describe(saved)} ({where}) that a run with "
+        f"{describe(run)} would replace"
     )
 
 
