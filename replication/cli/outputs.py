@@ -166,7 +166,9 @@ def check_replaces_alike(out: str | Path, what: str, run: Sequence[str], prefixe
     ``table1 --quick --output-dir DIR``, with DIR holding a run of the paper's settings,
     replaced that run's data without a word, and DIR's index then mixed the two kinds of run.
     A run may replace a data set of its own settings (a regeneration) or a quick one
-    (:func:`replication.report.settings.replacement_refused`).
+    (:func:`replication.report.settings.replacement_refused`). A save killed while it published
+    its files is finished first (:func:`replication.report.store.recover_data_sets`): its
+    provenance, not the one it was replacing, is the data set's.
 
     Parameters
     ----------

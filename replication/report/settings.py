@@ -82,7 +82,7 @@ def sph_option(option: str, settings: dict[str, Any] | None, top: int | None = N
     return option + (f" ({', '.join(changed)})" if changed else "")
 
 
-def validation_options(command: str, *, from_cache: bool = False) -> tuple[str, ...]:
+def validation_options(command: str) -> tuple[str, ...]:
     """The options of a ``validate-jet`` command line that can make another study than the
     committed one: ``--timeout`` (not the default, and not with ``--from-cache``, which
     simulates nothing) and ``--ga-run-dir``, as :func:`replication.cli.validate._custom_settings`
@@ -99,7 +99,7 @@ def validation_options(command: str, *, from_cache: bool = False) -> tuple[str, 
         if name in ("--timeout", "--ga-run-dir"):
             given[name] = value if eq else (words[k + 1] if k + 1 < len(words) else "")
     options = []
-    simulates = not (from_cache or "--from-cache" in words)
+    simulates = "--from-cache" not in words
     try:
         timeout = float(given["--timeout"]) if "--timeout" in given else None
     except ValueError:
@@ -183,9 +183,7 @@ def replacement_refused(data: str | Path, prefix: str, run: Sequence[str]) -> st
     str or None
         The reason as a predicate ("holds a Table 1 run with the paper's settings
         (data/table1_provenance.json) that a run with --quick would replace"), or None when
-        nothing is in the way. A save killed while it published its files is finished first
-        (:func:`replication.report.store.recover_data_sets`): its provenance, not the one it
-        was replacing, is the data set's.
+        nothing is in the way.
     """
     saved = saved_settings(data, prefix)
     if saved is None or saved == QUICK or saved == tuple(run):
@@ -198,8 +196,8 @@ def replacement_refused(data: str | Path, prefix: str, run: Sequence[str]) -> st
 
 
 def settings_note(data: str | Path, prefix: str) -> str:
-    """ " (quick run)" or " (other settings: ...)" after a data set's line in the index; "" for
-    the paper's settings or a data set without provenance."""
+    """What follows a data set's line in the index: a note of a quick run or of other settings,
+    or nothing for the paper's settings or a data set without provenance."""
     saved = saved_settings(data, prefix)
     if not saved:
         return ""
