@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from replication.cli import main
+from replication.errors import ReplicationError
 from replication.io import save_cloud
 
 TINY = ["--runs", "1", "--generations", "2", "--population", "6", "--executor", "serial"]
@@ -770,6 +771,56 @@ def test_interrupt_inside_compiled_code_exits_130(capsys, monkeypatch):
     monkeypatch.setattr("replication.cli.surfaces._cmd_adt", interrupted)
     code, _, err = run(capsys, "adt", "--random", "5")
     assert code == 130 and err == "replication adt: interrupted\n"
+
+
+def _reported_by_python(exc: BaseException) -> None:
+    """Raise ``exc`` in a ctypes callback, where Python only reports it (as in LLVM's
+    object-cache callback during numba's compile) and the caller goes on."""
+    import ctypes
+
+    def callback():
+        raise exc
+
+    ctypes.CFUNCTYPE(None)(callback)()
+
+
+@pytest.mark.parametrize("failure", [RuntimeError, ReplicationError])
+def test_a_ctrl_c_that_python_could_only_report_ends_the_command_as_interrupted(capsys, monkeypatch, failure):
+    """Ctrl-C during a cold compile of numba's kernels raised inside LLVM's object-cache
+    callback: Python printed "Exception ignored on calling ctypes callback function" with a
+    traceback, the compile went on, and numba's cache save then failed, so the command ended
+    in "unexpected RuntimeError: no compiled object yet". The failure after a lost Ctrl-C
+    is the interrupt: one line, exit 130."""
+
+    def cut_short(args):
+        _reported_by_python(KeyboardInterrupt())
+        raise failure("no compiled object yet for <Library 'f' at 0x7f>")
+
+    monkeypatch.setattr("replication.cli.surfaces._cmd_adt", cut_short)
+    code, _, err = run(capsys, "adt", "--random", "5")
+    assert code == 130 and err == "replication adt: interrupted\n"
+
+
+def test_a_lost_ctrl_c_leaves_a_finished_command_alone_and_other_reports_to_python(capsys, monkeypatch):
+    """A command that finishes after a lost Ctrl-C did its work (exit 0, nothing said); an
+    exception other than an interrupt that Python can only report still reaches the hook in
+    place, which the command puts back when it ends."""
+    import sys
+
+    reported = []
+    monkeypatch.setattr(sys, "unraisablehook", reported.append)
+    real = __import__("replication.cli.surfaces", fromlist=["_cmd_adt"])._cmd_adt
+
+    def finishes(args):
+        _reported_by_python(KeyboardInterrupt())
+        _reported_by_python(ValueError("a finalizer's own bug"))
+        return real(args)
+
+    monkeypatch.setattr("replication.cli.surfaces._cmd_adt", finishes)
+    code, out, err = run(capsys, "adt", "--random", "20", "--seed", "1", "--json")
+    assert code == 0 and err == "" and json.loads(out)["vertices"] == 20
+    assert [type(r.exc_value) for r in reported] == [ValueError]
+    assert sys.unraisablehook == reported.append
 
 
 def test_a_closed_pipe_ends_the_command_quietly(capsys, monkeypatch):

@@ -149,6 +149,37 @@ def _interrupted(exc: BaseException) -> bool:
     return caused_by_interrupt(exc)
 
 
+class _LostInterrupts:
+    """While active, a Ctrl-C whose :class:`KeyboardInterrupt` Python could only report (raised
+    in a ctypes callback, a finalizer, a weakref callback) is recorded in :attr:`lost`, not printed.
+
+    Ctrl-C during a first, cold compile of numba's kernels raised inside LLVM's object-cache
+    callback, a ctypes callback: Python printed "Exception ignored on calling ctypes callback
+    function" and a traceback, the compile went on without its object, and numba's cache save
+    then failed, so the command ended in "unexpected RuntimeError: no compiled object yet". The
+    command says "interrupted" instead when it fails after such a lost interrupt (:func:`main`).
+    Other unraisable exceptions go to the hook that was in place.
+    """
+
+    def __init__(self) -> None:
+        self.lost = False
+        self._previous = sys.unraisablehook
+
+    def __enter__(self) -> _LostInterrupts:
+        self._previous = sys.unraisablehook
+        sys.unraisablehook = self._hook
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        sys.unraisablehook = self._previous
+
+    def _hook(self, unraisable: object) -> None:
+        if isinstance(getattr(unraisable, "exc_value", None), KeyboardInterrupt):
+            self.lost = True
+            return
+        self._previous(unraisable)  # type: ignore[arg-type]
+
+
 def _one_line(exc: BaseException) -> str:
     """An unexpected exception as one line: its type and message, file names included."""
     text = " ".join(str(exc).split()) or "(no message)"
@@ -312,12 +343,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     func: Callable[[argparse.Namespace], int] = args.func
     name = f"replication {args.command}"
     stdout = sys.stdout
+    lost = _LostInterrupts()
     if stdout is not None:  # None when the standard output is closed (>&-): print() drops the text
         sys.stdout = _GuardedStdout(stdout)  # type: ignore[assignment]
     try:
         # SIGTERM stops the command as Ctrl-C does (replication.sigterm); the reports directory
         # it holds is released when it ends (replication.io.locks)
-        with sigterm_interrupts(), held_until_the_command_ends():
+        with sigterm_interrupts(), held_until_the_command_ends(), lost:
             status = func(args)
         if sys.stdout is not None:
             sys.stdout.flush()  # a file's full disk shows here, not as "Exception ignored" at exit
@@ -331,6 +363,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{name}: error: {escaped(str(exc))} (see '{name} --help')", file=sys.stderr)
         return 2
     except ReplicationError as exc:
+        if lost.lost:  # the failure of work cut short by a Ctrl-C that Python could not raise
+            return _stopped(name)
         print(f"{name}: error: {escaped(str(exc))}", file=sys.stderr)
         return 1
     except KeyboardInterrupt as exc:
@@ -339,7 +373,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _quiet_stdout()
         return 141  # 128 + SIGPIPE, as a shell pipeline's other programs end
     except Exception as exc:
-        if _interrupted(exc):  # Ctrl-C inside compiled code surfaces as another exception
+        if _interrupted(exc) or lost.lost:  # Ctrl-C inside compiled code surfaces as another exception
             return _stopped(name)
         if args.debug:
             raise
