@@ -132,6 +132,24 @@ def test_report_reads_data_it_cannot_write(capsys, tmp_path):
     (tmp_path / "file" / "data").write_text("x")
     code, _, err = run(capsys, "report", "--output-dir", str(tmp_path / "file"))
     assert code == 1 and one_line(err, "report") and "no report data under" in err, err
+    assert f"run `replication reproduce --output-dir {tmp_path / 'file'}` first" in err, err
+
+
+def test_data_a_report_cannot_draw_name_the_command_that_made_them_into_their_directory(tmp_path):
+    """'regenerate them with `replication table1`' dropped the run's settings (--quick) and
+    its directory: run as said, it wrote the paper's settings into reports/."""
+    import json
+
+    from replication.cli.reports import _again
+
+    (tmp_path / "data").mkdir()
+    assert _again("table1", tmp_path) == f"replication table1 --output-dir {tmp_path}"  # no record
+    record = {"command": "replication table1 --quick --output-dir elsewhere"}
+    (tmp_path / "data" / "table1_provenance.json").write_text(json.dumps(record))
+    assert _again("table1", tmp_path) == f"replication table1 --quick --output-dir {tmp_path}"
+    (tmp_path / "data" / "jet_validation_provenance.json").write_text("{not json")
+    assert _again("validate-jet", tmp_path) == f"replication validate-jet --output-dir {tmp_path}"
+    assert _again("reproduce", tmp_path) == f"replication reproduce --output-dir {tmp_path}"
 
 
 @pytest.mark.parametrize(
@@ -375,11 +393,14 @@ def test_report_with_other_settings_leaves_the_committed_page(capsys, tmp_path, 
 def test_report_without_a_reports_directory(capsys, tmp_path, monkeypatch):
     code, _, err = run(capsys, "report", "--output-dir", tmp_path / "none")
     assert code == 1 and one_line(err, "report") and "does not exist" in err
+    # the run it asks for makes that directory (it named the default reports/)
+    assert f"run `replication reproduce --output-dir {tmp_path / 'none'}` first" in err, err
     # with other settings too: it spoke of "the committed reports/performance.md, which shows 5
     # commits" where there is none
     monkeypatch.chdir(tmp_path)
     code, _, err = run(capsys, "report", "--performance", "--commits", "10")
     assert code == 1 and one_line(err, "report") and "reports directory reports does not exist" in err, err
+    assert "run `replication reproduce` first" in err, err  # the default directory: the plain command
 
 
 def test_report_into_a_directory_where_no_file_can_be_created(capsys, tmp_path, monkeypatch):

@@ -230,6 +230,8 @@ def test_a_table1_table_that_is_not_whole_is_refused_saying_what_it_lacks(tmp_pa
     with pytest.raises(ReportDataError) as caught:
         load_table1_data(tmp_path)
     assert str(caught.value).startswith(f"{path}: {said}"), str(caught.value)
+    # what to run names the directory of the data (it named the default reports/)
+    assert str(caught.value).endswith(f"regenerate them with `replication table1 --output-dir {tmp_path}`")
 
 
 @pytest.mark.parametrize(

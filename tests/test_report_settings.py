@@ -129,6 +129,23 @@ def test_a_run_of_other_settings_does_not_replace_a_saved_data_set(
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mine"]
 
 
+def test_the_data_sets_in_the_way_are_named_as_a_shell_reads_them(tmp_path, monkeypatch, capsys):
+    """ "move my reports/data/table1_* away" was three words to a shell: the path is quoted."""
+    import subprocess
+
+    monkeypatch.chdir(tmp_path)
+    _copy_data_set("table1", tmp_path / "my reports")
+    assert main(["table1", "--quick", "--output-dir", "my reports"]) == 2
+    err = capsys.readouterr().err
+    said = err.split("or move ", 1)[1].split(" away first", 1)[0]
+    assert said == "'my reports/data/table1'_*", err
+    listed = subprocess.run(["sh", "-c", f"ls -d {said}"], capture_output=True, text=True, check=True)
+    expected = sorted(
+        f"my reports/data/{p.name}" for p in (tmp_path / "my reports" / "data").glob("table1_*")
+    )
+    assert sorted(listed.stdout.splitlines()) == expected and expected
+
+
 def test_a_run_replaces_its_own_settings_and_a_quick_run(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     tiny = ["casestudy", "--runs", "1", "--generations", "2", "--population", "6", "--executor", "serial"]

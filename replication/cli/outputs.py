@@ -21,6 +21,7 @@ import argparse
 import contextlib
 import os
 import re
+import shlex
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -196,7 +197,8 @@ def check_replaces_alike(out: str | Path, what: str, run: Sequence[str], prefixe
     refused = [(prefix, why) for prefix in prefixes
                if (why := replacement_refused(data, prefix, run)) is not None]  # fmt: skip
     if refused:
-        moved = " and ".join(f"{data / prefix}_*" for prefix, _ in refused)
+        # quoted for a shell, the pattern outside the quotes: "my reports" has a space
+        moved = " and ".join(f"{shlex.quote(str(data / prefix))}_*" for prefix, _ in refused)
         raise UsageError(
             f"{what} {out} "
             + "; it ".join(why for _, why in refused)

@@ -83,8 +83,27 @@ def _render(render: Callable[[Path], Any], name: str, out: Path) -> Any:
     except (KeyError, ValueError, TypeError, IndexError, AttributeError) as exc:
         raise ReportDataError(
             f"the {name} data under {out / 'data'} are incomplete or inconsistent ({type(exc).__name__}: "
-            f"{exc}); regenerate them with `replication {name}`"
+            f"{exc}); regenerate them with `{_again(name, out)}`"
         ) from exc
+
+
+def _again(name: str, out: Path) -> str:
+    """The command that makes the ``name`` data of ``out`` again: the one their provenance
+    records (its settings kept), else the command of that name, into ``out``."""
+    import json
+
+    from replication.report.store import rerun_into
+
+    prefix = dict((command, experiment) for experiment, command in EXPERIMENTS).get(name)
+    command = f"replication {name}"
+    if prefix is not None:
+        try:
+            recorded = json.loads((out / "data" / f"{prefix}_provenance.json").read_text("utf-8"))
+        except (OSError, ValueError):  # the data's own errors are the ones reported
+            recorded = None
+        if isinstance(recorded, dict) and isinstance(recorded.get("command"), str):
+            command = recorded["command"]
+    return rerun_into(command, out)
 
 
 #: Each experiment's data: the prefix of its files, and the command that makes them.
@@ -184,13 +203,14 @@ def _cmd_report(args: argparse.Namespace) -> int:
     from replication.report.table1 import render_table1
 
     out = Path(args.output_dir or DEFAULT_DIR)
+    first = rerun_into("replication reproduce", out) if args.output_dir else "replication reproduce"
     commits = DEFAULT_COMMITS if args.commits is None else args.commits
     if args.commits is not None and not args.performance:
         raise UsageError(f"--commits {args.commits} applies to performance.md only: add --performance")
     found = lookup(out, ReportDataError, "reports directory")
     if not found.is_dir:  # first: the refusal below speaks of the committed page as of a file that exists
         what = "is a file" if found.exists else "does not exist"
-        raise ReportDataError(f"reports directory {out} {what}: run `replication reproduce` first")
+        raise ReportDataError(f"reports directory {out} {what}: run `{first}` first")
     if commits != DEFAULT_COMMITS and args.output_dir:
         check_not_committed(out, [f"--commits {commits}"])
     if commits != DEFAULT_COMMITS and not args.output_dir:  # reports/ is written with its settings only
@@ -253,7 +273,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     if not written:
-        raise ReportDataError(f"no report data under {out / 'data'}: run `replication reproduce` first")
+        raise ReportDataError(f"no report data under {out / 'data'}: run `{first}` first")
     finished = _render(finish_reports, "reproduce", out)  # the index, and a checkout's README
     written += finished
     if readme is not None and not any(same_file(readme, path) for path in finished):

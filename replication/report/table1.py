@@ -96,7 +96,13 @@ GRIDS = {
 RAGGED = frozenset({"montecarlo"})
 
 
-_DAMAGED = "the data are damaged; regenerate them with `replication table1`"
+def _damaged(provenance: dict[str, Any], out_dir: str | os.PathLike[str]) -> str:
+    """What to do about damaged tables: run the recorded command again, into ``out_dir``."""
+    from replication.report.store import rerun_into
+
+    command = provenance.get("command")
+    again = rerun_into(command if isinstance(command, str) else "replication table1", out_dir)
+    return f"the data are damaged; regenerate them with `{again}`"
 
 
 def load_table1_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
@@ -115,19 +121,22 @@ def load_table1_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     loaded["provenance"] = read_provenance(data, "table1_provenance.json", "replication table1")
     ns = [int(n) for n in loaded["provenance"].get("config", {}).get("ns", [])]
     if ns:
+        damaged = _damaged(loaded["provenance"], out_dir)
         for name, keys in GRIDS.items():
-            _check_grid(loaded[name], data / f"table1_{name}.csv", ns, keys, complete=name not in RAGGED)
-        _check_summary(loaded["montecarlo"], loaded["montecarlo_raw"], data)
+            path = data / f"table1_{name}.csv"
+            _check_grid(loaded[name], path, ns, keys, damaged, complete=name not in RAGGED)
+        _check_summary(loaded["montecarlo"], loaded["montecarlo_raw"], data, damaged)
     return loaded
 
 
-def _check_summary(summary: pd.DataFrame, raw: pd.DataFrame, data: Path) -> None:
+def _check_summary(summary: pd.DataFrame, raw: pd.DataFrame, data: Path, damaged: str) -> None:
     """Refuse a Monte Carlo summary that differs from the one computed from the raw data.
 
     The summary may lack a quantity at a size (never computable there), so a deleted row
     cannot be told from the summary alone; the raw data, from which it is computed, tell.
     Both are saved at full precision, but pandas 2's CSV reader may read a number back one
     unit in the last place off, so the recomputed numbers must agree to 1e-12, relatively.
+    ``damaged`` ends each refusal (what to run again).
     """
     from replication.errors import ReportDataError
     from replication.experiments.table1 import summarize_montecarlo
@@ -137,9 +146,9 @@ def _check_summary(summary: pd.DataFrame, raw: pd.DataFrame, data: Path) -> None
     path = data / "table1_montecarlo.csv"
     absent = [column for column in expected.columns if column not in summary.columns]
     if absent:
-        raise ReportDataError(f"{path}: no column {absent[0]!r}: {_DAMAGED}")
+        raise ReportDataError(f"{path}: no column {absent[0]!r}: {damaged}")
     both = summary.merge(expected, on=keys, how="outer", suffixes=("", " from raw"), indicator=True)
-    why = f"it is computed from {data / 'table1_montecarlo_raw.csv'}: {_DAMAGED}"
+    why = f"it is computed from {data / 'table1_montecarlo_raw.csv'}: {damaged}"
     for _, row in both.iterrows():
         named = f"n = {row['n']:g}, quantity = {row['quantity']}"
         if row["_merge"] != "both":
@@ -154,26 +163,32 @@ def _check_summary(summary: pd.DataFrame, raw: pd.DataFrame, data: Path) -> None
 
 
 def _check_grid(
-    frame: pd.DataFrame, path: Path, ns: list[int], keys: tuple[str, ...], *, complete: bool = True
+    frame: pd.DataFrame,
+    path: Path,
+    ns: list[int],
+    keys: tuple[str, ...],
+    damaged: str,
+    *,
+    complete: bool = True,
 ) -> None:
     """Refuse a table that is not a row for each n of ``ns`` and each combination of ``keys``
     (a row deleted from the storage table was drawn as missing, without a word); with
     ``complete=False`` the combinations may differ between sizes, but a size and a row must
-    still be the run's and there once."""
+    still be the run's and there once. ``damaged`` ends each refusal (what to run again)."""
     from replication.errors import ReportDataError
 
     sizes = set(frame["n"].tolist())
     stray = sorted(n for n in sizes if n not in ns)
     if stray:
-        raise ReportDataError(f"{path}: n = {stray[0]:g} is not one of the run's sizes {ns}: {_DAMAGED}")
+        raise ReportDataError(f"{path}: n = {stray[0]:g} is not one of the run's sizes {ns}: {damaged}")
     absent = [n for n in ns if n not in sizes]
     if absent:
-        raise ReportDataError(f"{path}: no rows for n = {absent[0]}: {_DAMAGED}")
+        raise ReportDataError(f"{path}: no rows for n = {absent[0]}: {damaged}")
     twice = frame.duplicated(["n", *keys])
     if twice.any():
         row = frame[twice].iloc[0]
         named = ", ".join(f"{k} = {row[k]}" for k in ("n", *keys))
-        raise ReportDataError(f"{path}: the row of {named} is there twice: {_DAMAGED}")
+        raise ReportDataError(f"{path}: the row of {named} is there twice: {damaged}")
     if not keys or not complete:
         return
     rows = {n: set(map(tuple, group[list(keys)].astype(str).to_numpy())) for n, group in frame.groupby("n")}
@@ -183,7 +198,7 @@ def _check_grid(
         if lacking:
             named = ", ".join(f"{k} = {v}" for k, v in zip(keys, lacking[0]))
             said = f"n = {n} lacks the row of {named} that other sizes have"
-            raise ReportDataError(f"{path}: {said}; {_DAMAGED}")
+            raise ReportDataError(f"{path}: {said}; {damaged}")
 
 
 def _q(frame: pd.DataFrame, n: int, quantity: str) -> pd.Series:
