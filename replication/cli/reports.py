@@ -90,20 +90,12 @@ def _render(render: Callable[[Path], Any], name: str, out: Path) -> Any:
 def _again(name: str, out: Path) -> str:
     """The command that makes the ``name`` data of ``out`` again: the one their provenance
     records (its settings kept), else the command of that name, into ``out``."""
-    import json
-
-    from replication.report.store import rerun_into
+    from replication.report.settings import saved_record
+    from replication.report.store import run_again
 
     prefix = dict((command, experiment) for experiment, command in EXPERIMENTS).get(name)
-    command = f"replication {name}"
-    if prefix is not None:
-        try:
-            recorded = json.loads((out / "data" / f"{prefix}_provenance.json").read_text("utf-8"))
-        except (OSError, ValueError):  # the data's own errors are the ones reported
-            recorded = None
-        if isinstance(recorded, dict) and isinstance(recorded.get("command"), str):
-            command = recorded["command"]
-    return rerun_into(command, out)
+    record = saved_record(out / "data", prefix) if prefix is not None else None  # None: unreadable
+    return run_again(record, f"replication {name}", out)
 
 
 #: Each experiment's data: the prefix of its files, and the command that makes them.

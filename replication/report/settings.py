@@ -31,6 +31,7 @@ __all__ = [
     "as_given",
     "describe",
     "replacement_refused",
+    "saved_record",
     "saved_settings",
     "settings_note",
     "sph_option",
@@ -116,7 +117,7 @@ def article(title: str) -> str:
     return f"{'an' if title.startswith('SPH') else 'a'} {title}"
 
 
-def _record(data: Path, prefix: str) -> dict[str, Any] | None:
+def saved_record(data: Path, prefix: str) -> dict[str, Any] | None:
     """The provenance record of a data set, or None when there is none to read (a damaged one
     is the report's to refuse, with its own message, when it is drawn)."""
     try:
@@ -162,7 +163,7 @@ def saved_settings(data: str | Path, prefix: str) -> tuple[str, ...] | None:
         ``()`` for the paper's settings, ``("--quick",)`` for a quick run, else the settings
         that differ from the paper's (``"population 24 (paper: 48)"``, ``"--solver sph"``).
     """
-    record = _record(Path(data), prefix)
+    record = saved_record(Path(data), prefix)
     return None if record is None else _settings(prefix, record)
 
 

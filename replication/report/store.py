@@ -40,6 +40,7 @@ __all__ = [
     "read_json",
     "read_provenance",
     "rerun_into",
+    "run_again",
     "write_csv",
     "write_json",
 ]
@@ -201,6 +202,16 @@ def rerun_into(command: str, out: str | os.PathLike[str]) -> str:
     return shlex.join([*kept, "--output-dir", str(out)])
 
 
+def run_again(record: object, command: str, out: str | os.PathLike[str]) -> str:
+    """The command that makes a data set again into ``out``: the one its provenance ``record``
+    records (the run's own invocation, its settings included), else ``command``
+    (:func:`rerun_into`)."""
+    recorded = record.get("command") if isinstance(record, dict) else None
+    if isinstance(recorded, str) and recorded.startswith("replication "):
+        command = recorded
+    return rerun_into(command, out)
+
+
 def read_provenance(data: str | os.PathLike[str], provenance: str, command: str) -> dict[str, Any]:
     """The provenance record of a data set, after checking its files against the checksums it
     records (a set saved before they were recorded is read as it is).
@@ -218,9 +229,7 @@ def read_provenance(data: str | os.PathLike[str], provenance: str, command: str)
     files = record.get(DATA_FILES)
     if files is None:
         return record
-    if isinstance(record.get("command"), str) and record["command"].startswith("replication "):
-        command = record["command"]  # the run's own invocation, its settings included
-    command = rerun_into(command, data.parent)
+    command = run_again(record, command, data.parent)
     if not isinstance(files, dict):
         raise ReportDataError(
             f"{data / provenance}: its {DATA_FILES} record is not a mapping; run `{command}` again"

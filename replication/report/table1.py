@@ -24,7 +24,7 @@ from replication.report.figures import clear_figures, fig6, figure_files, scale_
 from replication.report.markdown import fmt, iqr, provenance_section, table, write_report
 from replication.report.parallel import run_figure_tasks
 from replication.report.render3d import render_views
-from replication.report.store import data_set, read_csv, read_provenance, write_csv, write_json
+from replication.report.store import data_set, read_csv, read_provenance, run_again, write_csv, write_json
 
 __all__ = ["TABLES", "save_table1_data", "load_table1_data", "render_table1"]
 
@@ -98,11 +98,9 @@ RAGGED = frozenset({"montecarlo"})
 
 def _damaged(provenance: dict[str, Any], out_dir: str | os.PathLike[str]) -> str:
     """What to do about damaged tables: run the recorded command again, into ``out_dir``."""
-    from replication.report.store import rerun_into
-
-    command = provenance.get("command")
-    again = rerun_into(command if isinstance(command, str) else "replication table1", out_dir)
-    return f"the data are damaged; regenerate them with `{again}`"
+    return (
+        f"the data are damaged; regenerate them with `{run_again(provenance, 'replication table1', out_dir)}`"
+    )
 
 
 def load_table1_data(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
