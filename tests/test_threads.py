@@ -203,3 +203,53 @@ def test_numba_s_default_is_read_as_numba_reads_it():
     if os.environ.get("NUMBA_NUM_THREADS"):
         pytest.skip("NUMBA_NUM_THREADS is set here")
     assert _threads._numba_default() == numba.config.NUMBA_NUM_THREADS
+
+
+_LEAKED_COMPILE_LOCKS = """
+import threading, time
+import llvmlite.binding as llvm
+from llvmlite.binding import ffi
+from numba.core.compiler_lock import global_compiler_lock
+from replication.surfaces import _threads
+
+def leak():  # as Ctrl-C inside a lock's own __enter__ (after its acquire) leaves it
+    ffi.lib._lock.__enter__()
+    global_compiler_lock.acquire()
+
+def compile_like():  # what a pool thread's compile takes: LLVM's lock, numba's compiler lock
+    with global_compiler_lock:
+        return llvm.get_process_triple()
+
+leak()
+print(_threads.run([compile_like, compile_like]) == [llvm.get_process_triple()] * 2, flush=True)
+caller, started = threading.current_thread(), threading.Event()
+
+def either():
+    if threading.current_thread() is caller:
+        assert started.wait(5)
+        leak()
+        raise KeyboardInterrupt
+    started.set()
+    time.sleep(0.2)  # the caller leaks the locks and is interrupted meanwhile
+    compile_like()
+
+try:
+    _threads.run([either, either])
+except KeyboardInterrupt:
+    print("interrupted", flush=True)
+"""
+
+
+def test_a_compile_lock_that_an_interrupt_left_held_does_not_hang_the_pool():
+    """Ctrl-C during a first, cold compile of the kernels can land inside llvmlite's lock
+    between its acquire and its ``with`` block, leaving it held by the main thread: a pool
+    thread compiling a kernel then waited for it forever, and the main thread for the pool
+    thread (``replication adt`` hung, 1 of 16 tries). Run in a child process, with a timeout."""
+    import subprocess
+    import sys
+
+    env = {**os.environ, "NUMBA_NUM_THREADS": "2"}
+    done = subprocess.run(
+        [sys.executable, "-c", _LEAKED_COMPILE_LOCKS], capture_output=True, text=True, timeout=60, env=env
+    )
+    assert done.returncode == 0 and done.stdout.split() == ["True", "interrupted"], done.stderr

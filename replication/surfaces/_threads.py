@@ -193,6 +193,35 @@ def _give_back(helpers: list[_Helper]) -> None:
         _idle.extend(helpers)
 
 
+def _compile_locks() -> list[Any]:
+    """The reentrant locks a numba compile takes, of the modules loaded: llvmlite's, around
+    every call into LLVM, and numba's compiler lock (private attributes: none when they move)."""
+    ffi = sys.modules.get("llvmlite.binding.ffi")
+    compiler = sys.modules.get("numba.core.compiler_lock")
+    found = (
+        getattr(getattr(getattr(ffi, "lib", None), "_lock", None), "_lock", None),
+        getattr(getattr(compiler, "global_compiler_lock", None), "_lock", None),
+    )
+    return [lock for lock in found if callable(getattr(lock, "_is_owned", None))]
+
+
+def _release_leaked_compile_locks() -> None:
+    """Release the compile locks (:func:`_compile_locks`) if this thread holds them.
+
+    Ctrl-C is raised wherever the main thread's Python code is, a compile's included; raised
+    inside llvmlite's lock between its acquire and the ``with`` block (numba's event callbacks
+    run there), or between the block and the release, it leaves the lock held by the main
+    thread for good. A pool thread that then compiled a kernel waited for it forever, and the
+    main thread waited for that pool thread: ``replication adt`` hung after Ctrl-C during a
+    first, cold compile (1 of 16 tries). :func:`run` is never called inside a compile, so a
+    compile lock its thread holds when it starts, or once a task of its own has failed, is
+    such a leak.
+    """
+    for lock in _compile_locks():
+        while lock._is_owned():
+            lock.release()
+
+
 def run(tasks: Sequence[Callable[[], Any]]) -> list[Any]:
     """Run the callables, this thread and ``threads() - 1`` pool threads taking them in order."""
     if len(tasks) < 2:
@@ -200,6 +229,7 @@ def run(tasks: Sequence[Callable[[], Any]]) -> list[Any]:
     count = min(len(tasks), threads())
     if count < 2:
         return [task() for task in tasks]
+    _release_leaked_compile_locks()  # an earlier interrupt's, or the pool threads could wait for it
     results: list[Any] = [None] * len(tasks)
     queue = iter(range(len(tasks)))  # next() on a range iterator is atomic: no lock to leave held
     stopped: list[bool] = []
@@ -216,6 +246,9 @@ def run(tasks: Sequence[Callable[[], Any]]) -> list[Any]:
         for helper in helpers:
             helper.start(work)
         work()
+    except BaseException:
+        _release_leaked_compile_locks()  # before waiting for pool threads that may compile
+        raise
     finally:
         stopped.append(True)  # an interrupted or failed run starts no further task
         try:
