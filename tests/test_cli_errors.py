@@ -1,6 +1,7 @@
 """Every way a user can get a command wrong ends in one clear line, never a traceback."""
 
 import json
+import os
 import shutil
 import socket
 
@@ -842,6 +843,26 @@ def test_a_lost_ctrl_c_leaves_a_finished_command_alone_and_other_reports_to_pyth
     assert code == 0 and err == "" and json.loads(out)["vertices"] == 20
     assert [type(r.exc_value) for r in reported] == [ValueError]
     assert sys.unraisablehook == reported.append
+
+
+def test_a_sigterm_lost_in_a_callback_ends_the_command_as_terminated_without_a_traceback(
+    capsys, monkeypatch, tmp_path
+):
+    """SIGTERM's own raise, lost in a callback, printed Python's "Exception ignored" traceback;
+    the command still ends as terminated (143) when its block ends (replication.sigterm)."""
+    import signal
+
+    real = __import__("replication.cli.surfaces", fromlist=["_cmd_adt"])._cmd_adt
+
+    def terminated_in_a_callback(args):
+        import ctypes
+
+        ctypes.CFUNCTYPE(None)(lambda: os.kill(os.getpid(), signal.SIGTERM))()
+        return real(args)
+
+    monkeypatch.setattr("replication.cli.surfaces._cmd_adt", terminated_in_a_callback)
+    code, _, err = run(capsys, "adt", "--random", "20", "--seed", "1", "-o", tmp_path / "s.vtk")
+    assert code == 143 and err == "replication adt: terminated (SIGTERM)\n"
 
 
 def test_a_closed_pipe_ends_the_command_quietly(capsys, monkeypatch):

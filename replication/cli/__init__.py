@@ -158,7 +158,12 @@ class _LostInterrupts:
     function" and a traceback, the compile went on without its object, and numba's cache save
     then failed, so the command ended in "unexpected RuntimeError: no compiled object yet". The
     command says "interrupted" instead when it fails after such a lost interrupt (:func:`main`).
-    Other unraisable exceptions go to the hook that was in place.
+    Lost where the compile does not fail (the callback that offers numba a cached object), the
+    Ctrl-C is not raised at all and the command goes on, as after a Ctrl-C it ignores: a second
+    one stops it. (Raising SIGINT again from the hook raises it in the hook, lost again, and
+    from another thread, it may come after the command has said how it ended.) SIGTERM's
+    :class:`~replication.sigterm.Terminated` is recorded too; :mod:`replication.sigterm` raises a
+    lost one when its block ends. Other unraisable exceptions go to the hook that was in place.
     """
 
     def __init__(self) -> None:
