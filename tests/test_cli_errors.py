@@ -845,6 +845,33 @@ def test_a_lost_ctrl_c_leaves_a_finished_command_alone_and_other_reports_to_pyth
     assert sys.unraisablehook == reported.append
 
 
+def test_an_object_an_interrupt_cut_short_says_nothing_as_it_is_freed(capsys, monkeypatch):
+    """Ctrl-C while llvmlite built an object left it without its handle: freed after
+    "replication adt: interrupted", its finalizer printed "Exception ignored in ObjectRef.__del__"
+    and an AttributeError traceback. Before the interrupt, such reports still reach Python."""
+    import sys
+
+    reported = []
+    monkeypatch.setattr(sys, "unraisablehook", reported.append)
+
+    class HalfBuilt:
+        def __init__(self, interrupt):
+            if interrupt:
+                raise KeyboardInterrupt  # (the object lives on in the traceback's frame)
+
+        def __del__(self):
+            raise AttributeError("'PassBuilder' object has no attribute '_as_parameter_'")
+
+    def interrupted(args):
+        HalfBuilt(interrupt=False)  # freed before any interrupt: reported as ever
+        HalfBuilt(interrupt=True)
+
+    monkeypatch.setattr("replication.cli.surfaces._cmd_adt", interrupted)
+    code, _, err = run(capsys, "adt", "--random", "5")
+    assert code == 130 and err == "replication adt: interrupted\n"
+    assert [type(r.exc_value) for r in reported] == [AttributeError] and sys.unraisablehook == reported.append
+
+
 def test_a_sigterm_lost_in_a_callback_ends_the_command_as_terminated_without_a_traceback(
     capsys, monkeypatch, tmp_path
 ):

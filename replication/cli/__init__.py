@@ -163,11 +163,15 @@ class _LostInterrupts:
     one stops it. (Raising SIGINT again from the hook raises it in the hook, lost again, and
     from another thread, it may come after the command has said how it ended.) SIGTERM's
     :class:`~replication.sigterm.Terminated` is recorded too; :mod:`replication.sigterm` raises a
-    lost one when its block ends. Other unraisable exceptions go to the hook that was in place.
+    lost one when its block ends. Other unraisable exceptions go to the hook that was in place,
+    until the command has said that it was stopped (:attr:`quiet`): an object that Ctrl-C cut
+    short while it was built (llvmlite's, in a compile) then printed "Exception ignored in
+    ObjectRef.__del__" and an ``AttributeError`` traceback below "interrupted" as it was freed.
     """
 
     def __init__(self) -> None:
         self.lost = False
+        self.quiet = False  # set once the command has said it was stopped
         self._previous = sys.unraisablehook
 
     def __enter__(self) -> _LostInterrupts:
@@ -181,6 +185,8 @@ class _LostInterrupts:
     def _hook(self, unraisable: object) -> None:
         if isinstance(getattr(unraisable, "exc_value", None), KeyboardInterrupt):
             self.lost = True
+            return
+        if self.quiet:  # an object that the interrupt cut short, complaining as it is freed
             return
         self._previous(unraisable)  # type: ignore[arg-type]
 
@@ -351,50 +357,54 @@ def main(argv: Sequence[str] | None = None) -> int:
     lost = _LostInterrupts()
     if stdout is not None:  # None when the standard output is closed (>&-): print() drops the text
         sys.stdout = _GuardedStdout(stdout)  # type: ignore[assignment]
-    try:
-        # SIGTERM stops the command as Ctrl-C does (replication.sigterm); the reports directory
-        # it holds is released when it ends (replication.io.locks)
-        with sigterm_interrupts(), held_until_the_command_ends(), lost:
-            status = func(args)
-        if sys.stdout is not None:
-            sys.stdout.flush()  # a file's full disk shows here, not as "Exception ignored" at exit
-        return status
-    except _StdoutFailed as exc:  # (the surface commands print after writing their files)
-        _quiet_stdout()
-        text = f"cannot write the standard output: {exc} (any file the command wrote is complete)"
-        print(f"{name}: error: {escaped(text)}", file=sys.stderr)
-        return 1
-    except UsageError as exc:  # options that do not go together: a usage error, as argparse's
-        print(f"{name}: error: {escaped(str(exc))} (see '{name} --help')", file=sys.stderr)
-        return 2
-    except ReplicationError as exc:
-        if lost.lost:  # the failure of work cut short by a Ctrl-C that Python could not raise
-            return _stopped(name)
-        print(f"{name}: error: {escaped(str(exc))}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt as exc:
-        return _stopped(name, exc)
-    except BrokenPipeError:  # the reader went away (``replication adt ... --json | head``): quietly
-        _quiet_stdout()
-        return 141  # 128 + SIGPIPE, as a shell pipeline's other programs end
-    except Exception as exc:
-        if _interrupted(exc) or lost.lost:  # Ctrl-C inside compiled code surfaces as another exception
-            return _stopped(name)
-        if args.debug:
-            raise
-        refused = _refused(exc)
-        text = refused if refused is not None else _unexpected(exc)
-        print(f"{name}: error: {escaped(text)}", file=sys.stderr)
-        return 1
-    finally:
-        sys.stdout = stdout
+    with lost:  # (to the end: objects an interrupt cut short are freed after the handlers)
+        try:
+            # SIGTERM stops the command as Ctrl-C does (replication.sigterm); the reports directory
+            # it holds is released when it ends (replication.io.locks)
+            with sigterm_interrupts(), held_until_the_command_ends():
+                status = func(args)
+            if sys.stdout is not None:
+                sys.stdout.flush()  # a file's full disk shows here, not as "Exception ignored" at exit
+            return status
+        except _StdoutFailed as exc:  # (the surface commands print after writing their files)
+            _quiet_stdout()
+            text = f"cannot write the standard output: {exc} (any file the command wrote is complete)"
+            print(f"{name}: error: {escaped(text)}", file=sys.stderr)
+            return 1
+        except UsageError as exc:  # options that do not go together: a usage error, as argparse's
+            print(f"{name}: error: {escaped(str(exc))} (see '{name} --help')", file=sys.stderr)
+            return 2
+        except ReplicationError as exc:
+            if lost.lost:  # the failure of work cut short by a Ctrl-C that Python could not raise
+                return _stopped(name, quiet=lost)
+            print(f"{name}: error: {escaped(str(exc))}", file=sys.stderr)
+            return 1
+        except KeyboardInterrupt as exc:
+            return _stopped(name, exc, quiet=lost)
+        except BrokenPipeError:  # the reader went away (``replication adt ... --json | head``): quietly
+            _quiet_stdout()
+            return 141  # 128 + SIGPIPE, as a shell pipeline's other programs end
+        except Exception as exc:
+            if _interrupted(exc) or lost.lost:  # Ctrl-C inside compiled code surfaces as another exception
+                return _stopped(name, quiet=lost)
+            if args.debug:
+                raise
+            refused = _refused(exc)
+            text = refused if refused is not None else _unexpected(exc)
+            print(f"{name}: error: {escaped(text)}", file=sys.stderr)
+            return 1
+        finally:
+            sys.stdout = stdout
 
 
-def _stopped(name: str, exc: BaseException | None = None) -> int:
+def _stopped(name: str, exc: BaseException | None = None, *, quiet: _LostInterrupts | None = None) -> int:
     """Say that the command was stopped, by Ctrl-C (exit 130) or SIGTERM (143), which files it
     had written when the signal came while they were moved into place, and the error of a
-    write that failed meanwhile."""
+    write that failed meanwhile. From then on ``quiet`` drops what finalizers report."""
     from replication.io.atomic import written_before
+
+    if quiet is not None:
+        quiet.quiet = True
 
     written = written_before(exc) if exc is not None else ()
     after = ""
@@ -425,5 +435,11 @@ def run() -> None:
     import gc
 
     status = main()
+    if status in (130, SIGTERM_EXIT):  # stopped, and said so: objects it cut short are freed at exit
+        sys.unraisablehook = _drop
     gc.freeze()
     sys.exit(status)
+
+
+def _drop(unraisable: object) -> None:
+    """An unraisable-exception hook that says nothing (see :func:`run`)."""
