@@ -146,6 +146,14 @@ def test_the_data_sets_in_the_way_are_named_as_a_shell_reads_them(tmp_path, monk
     assert sorted(listed.stdout.splitlines()) == expected and expected
 
 
+def test_a_data_set_in_the_way_under_a_dash_directory_is_named_as_a_path(tmp_path, monkeypatch, capsys):
+    # "move -dash/data/table1_* away": mv took -dash/... for options ("invalid option -- 'd'")
+    monkeypatch.chdir(tmp_path)
+    _copy_data_set("table1", tmp_path / "-dash")
+    assert main(["table1", "--quick", "--output-dir", "./-dash"]) == 2
+    assert "or move ./-dash/data/table1_* away first" in capsys.readouterr().err
+
+
 def test_a_run_replaces_its_own_settings_and_a_quick_run(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     tiny = ["casestudy", "--runs", "1", "--generations", "2", "--population", "6", "--executor", "serial"]

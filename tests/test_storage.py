@@ -170,3 +170,13 @@ def test_a_rerun_writes_into_the_directory_reported(command, again):
     from replication.report.store import rerun_into
 
     assert rerun_into(command, "my reports") == again
+
+
+@pytest.mark.parametrize(
+    ("out", "word"), [("-e", "./-e"), ("-my reports", "'./-my reports'"), ("./-e", "./-e")]
+)
+def test_a_rerun_into_a_directory_named_like_an_option_says_it_as_a_path(out, word):
+    # `replication reproduce --output-dir -e`, pasted as printed, was "expected one argument"
+    from replication.report.store import rerun_into
+
+    assert rerun_into("replication reproduce", out) == f"replication reproduce --output-dir {word}"

@@ -189,7 +189,7 @@ def check_replaces_alike(out: str | Path, what: str, run: Sequence[str], prefixe
     """
     from replication.errors import UsageError
     from replication.report.settings import replacement_refused
-    from replication.report.store import recover_data_sets
+    from replication.report.store import dashless, recover_data_sets
 
     data = Path(out) / "data"
     if prefixes and data.is_dir():  # a save killed while it published: its set, not the one it replaced
@@ -198,7 +198,7 @@ def check_replaces_alike(out: str | Path, what: str, run: Sequence[str], prefixe
                if (why := replacement_refused(data, prefix, run)) is not None]  # fmt: skip
     if refused:
         # quoted for a shell, the pattern outside the quotes: "my reports" has a space
-        moved = " and ".join(f"{shlex.quote(str(data / prefix))}_*" for prefix, _ in refused)
+        moved = " and ".join(f"{shlex.quote(dashless(data / prefix))}_*" for prefix, _ in refused)
         raise UsageError(
             f"{what} {out} "
             + "; it ".join(why for _, why in refused)

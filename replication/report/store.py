@@ -39,6 +39,7 @@ __all__ = [
     "read_csv",
     "read_json",
     "read_provenance",
+    "dashless",
     "rerun_into",
     "run_again",
     "write_csv",
@@ -199,7 +200,13 @@ def rerun_into(command: str, out: str | os.PathLike[str]) -> str:
     resume = kept[1:2] == ["casestudy"] and any(w.split("=")[0] == "--run-dir" for w in kept)
     if resume and "--resume" not in kept:
         kept.append("--resume")
-    return shlex.join([*kept, "--output-dir", str(out)])
+    return shlex.join([*kept, "--output-dir", dashless(out)])
+
+
+def dashless(path: str | os.PathLike[str]) -> str:
+    """``path`` as a word that no command takes for an option: ``./-e`` for ``-e``."""
+    text = os.fspath(path)
+    return f"./{text}" if text.startswith("-") else text
 
 
 def run_again(record: object, command: str, out: str | os.PathLike[str]) -> str:
