@@ -34,12 +34,12 @@ from replication.io.atomic import (
 
 __all__ = [
     "PUBLISH_WAIT",
+    "dashless",
     "data_set",
     "interrupt_deferred",
     "read_csv",
     "read_json",
     "read_provenance",
-    "dashless",
     "rerun_into",
     "run_again",
     "write_csv",
