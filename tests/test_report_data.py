@@ -230,8 +230,16 @@ def test_a_table1_table_that_is_not_whole_is_refused_saying_what_it_lacks(tmp_pa
     with pytest.raises(ReportDataError) as caught:
         load_table1_data(tmp_path)
     assert str(caught.value).startswith(f"{path}: {said}"), str(caught.value)
-    # what to run names the directory of the data (it named the default reports/)
-    assert str(caught.value).endswith(f"regenerate them with `replication table1 --output-dir {tmp_path}`")
+    # what to run: the command that made the data (table1, or reproduce after the README's
+    # run), into the directory of the data (it named `replication table1` and reports/)
+    import json
+
+    from replication.report.store import rerun_into
+
+    recorded = json.loads((data / "table1_provenance.json").read_text())["command"]
+    assert recorded.startswith(("replication table1", "replication reproduce")), recorded
+    assert str(caught.value).endswith(f"regenerate them with `{rerun_into(recorded, tmp_path)}`")
+    assert str(caught.value).endswith(f" --output-dir {tmp_path}`")
 
 
 @pytest.mark.parametrize(
