@@ -158,3 +158,13 @@ def test_headline_states_the_storage_verdict(quick_reports):
         assert family in line
     text = (quick_reports / "table1.md").read_text()
     assert "What the paper's 9-point files suggest" in text and "characters per coordinate" in text
+
+
+def test_a_quick_report_judges_no_speed_claim(quick_reports):
+    """A quick run's 3 repeat pairs decide no timing claim, so its verdicts do not move with the load."""
+    claims = pd.read_csv(quick_reports / "data/table1_claims.csv")
+    speed = claims[claims["claim"].str.startswith("ADT is almost 3 times faster")]
+    assert len(speed) == 2 and (speed["verdict"] == "cannot be decided").all()
+    assert speed["why"].str.contains("only 3 repeat pairs per n").all()
+    line = next(s for s in (quick_reports / "index.md").read_text().splitlines() if s.startswith("- **Speed**"))
+    assert "**cannot be decided** / **cannot be decided**" in line and "only 3 repeat pairs" in line

@@ -16,6 +16,7 @@ import pandas as pd
 from replication.experiments.claims import (
     FACTOR_TOLERANCE,
     MAJORITY,
+    MIN_TIMING_PAIRS,
     PAPER,
     Trend,
     combine,
@@ -23,6 +24,7 @@ from replication.experiments.claims import (
     median_interval,
     share_verdict,
     storage_overall,
+    timing_factor_verdict,
     trend_verdict,
 )
 from replication.experiments.paper import PAPER_TABLE1_STATEMENTS as WORDS
@@ -106,13 +108,10 @@ def _trend(raw: pd.DataFrame | None, column: str, direction: int, drift: float =
     return trend_verdict(raw["n"].to_numpy(), raw[column].to_numpy(), direction=direction, drift=drift)
 
 
-def _factor_rows(
-    per_n: dict[int, tuple[float, float, float, float]], paper: float, smaller: bool, drift: float = 1.0
-) -> dict:
+def _factor_rows(per_n: dict[int, tuple[float, float, float, float]], paper: float, smaller: bool) -> dict:
+    """Factor verdicts by n of an exact quantity (file sizes; timings: ``timing_factor_verdict``)."""
     return {
-        n: factor_verdict(
-            v[0], paper, smaller_is_adt_better=smaller, interval=median_interval(*v), drift=drift
-        )
+        n: factor_verdict(v[0], paper, smaller_is_adt_better=smaller, interval=median_interval(*v))
         for n, v in per_n.items()
     }
 
@@ -255,7 +254,15 @@ def table1_claims(
         ("fast NdBSpline evaluator", "nurbs_fast/adt"),
     ):
         per_n = {n: _mc(timings, n, quantity) for n in ns}
-        by_n = _factor_rows(per_n, PAPER["speed_ratio"].value, False, drift=TIMING_DRIFT)
+        by_n = {n: timing_factor_verdict(*v, PAPER["speed_ratio"].value) for n, v in per_n.items()}
+        pairs = {int(v[3]) for v in per_n.values() if np.isfinite(v[3])}
+        few = (
+            f"; only {'/'.join(str(p) for p in sorted(pairs))} repeat pairs per n: a timing claim is "
+            f"decided from at least {MIN_TIMING_PAIRS} (a quick run's ratios move more between runs "
+            "than their interval shows)"
+            if pairs and min(pairs) < MIN_TIMING_PAIRS
+            else ""
+        )
         rows.append(_Row(
             f"ADT is almost 3 times faster than NURBS ({label}; NURBS/ADT time, median at n = {large}; "
             f"decided over n = {small}..{large})",
@@ -263,7 +270,7 @@ def table1_claims(
             "NURBS/ADT time by n: " + ", ".join(f"{n}: {v[0]:.1f}" for n, v in per_n.items())
             + f"; 'almost 3' taken as within x{FACTOR_TOLERANCE:g} for the 95 % interval of the median, "
             f"widened x{TIMING_DRIFT:g} for the drift of timings between runs; verdicts by n: "
-            + ", ".join(f"{n}: {v}" for n, v in by_n.items()),
+            + ", ".join(f"{n}: {v}" for n, v in by_n.items()) + few,
         ))  # fmt: skip
 
     # "the difference grows with the number of points": fitted trends over the clouds
