@@ -380,6 +380,31 @@ def test_ctrl_c_while_the_report_is_drawn_says_the_data_are_saved(capsys, tmp_pa
     )
 
 
+def test_resume_and_draw_hints_name_directories_that_start_with_a_dash_as_paths(
+    capsys, tmp_path, monkeypatch, reference
+):
+    """``-run`` printed bare in a hint was read by argparse as an option ("expected one argument")."""
+    monkeypatch.chdir(tmp_path)
+    _interrupt_after(monkeypatch, 1)
+    assert main(["casestudy", *TINY_ARGS, "--output-dir=-out", "--run-dir=-run"]) == 130
+    hint = _hint(capsys.readouterr().err)
+    assert hint[hint.index("--run-dir") + 1] == "./-run" and hint[hint.index("--output-dir") + 1] == "./-out"
+
+    def ctrl_c(out, workers=1):
+        raise KeyboardInterrupt
+
+    monkeypatch.undo()
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("replication.report.casestudy.render_casestudy", ctrl_c)
+    assert main(hint[1:]) == 130  # the resume, as printed, runs the GA to its end
+    assert _state(tmp_path / "-run" / "run-0.json") == _state(reference["tiny"] / "run-0.json")
+    draw = shlex.split(capsys.readouterr().err.split("draw it with: ", 1)[1].splitlines()[0])
+    monkeypatch.undo()
+    monkeypatch.chdir(tmp_path)
+    assert draw == ["replication", "report", "--output-dir", "./-out"] and main(draw[1:]) == 0
+    assert (tmp_path / "-out" / "casestudy.md").is_file()
+
+
 @pytest.mark.parametrize("how", ["ctrl-c", "full disk"])
 def test_an_earlier_run_s_page_left_beside_new_data_says_it_is_out_of_date(
     how, capsys, tmp_path, monkeypatch

@@ -166,5 +166,7 @@ def test_a_quick_report_judges_no_speed_claim(quick_reports):
     speed = claims[claims["claim"].str.startswith("ADT is almost 3 times faster")]
     assert len(speed) == 2 and (speed["verdict"] == "cannot be decided").all()
     assert speed["why"].str.contains("only 3 repeat pairs per n").all()
-    line = next(s for s in (quick_reports / "index.md").read_text().splitlines() if s.startswith("- **Speed**"))
+    line = next(
+        s for s in (quick_reports / "index.md").read_text().splitlines() if s.startswith("- **Speed**")
+    )
     assert "**cannot be decided** / **cannot be decided**" in line and "only 3 repeat pairs" in line

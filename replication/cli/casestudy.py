@@ -268,6 +268,7 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
     from replication.experiments.casestudy import differences_from_paper, quick_ga_config
     from replication.io.locks import hold_reports_dir
     from replication.report.settings import sph_option as sph_words
+    from replication.report.store import dashless
 
     hold_reports_dir(out, what)  # (two runs into one directory left one's page over the other's data)
     # the run's settings as its provenance will record them (a saved case study of others stays)
@@ -278,9 +279,10 @@ def plan_casestudy(args: argparse.Namespace) -> Plan:
         settings.append(sph_words("--rescore sph", rescore.settings.as_dict(), rescore.top))
     check_replaces_alike(out, what, settings, ["casestudy"])
 
-    hint = ["replication", "casestudy", "--run-dir", str(run_dir), "--resume"]
+    # (a directory named like an option, -e, is written ./-e: argparse would read -e as one)
+    hint = ["replication", "casestudy", "--run-dir", dashless(run_dir), "--resume"]
     if out.resolve() != default_out.resolve():
-        hint += ["--output-dir", str(out)]
+        hint += ["--output-dir", dashless(out)]
     # where the fitness is evaluated is not a setting of the run, but the report times it:
     # a resume on other workers would report another evaluation cost
     if getattr(args, "executor", "auto") != "auto":

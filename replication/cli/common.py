@@ -375,7 +375,9 @@ def draw_command(out: Any) -> str:
     """The command that draws the reports in ``out`` from their saved data."""
     import shlex
 
-    return shlex.join(["replication", "report", "--output-dir", str(out)])
+    from replication.report.store import dashless
+
+    return shlex.join(["replication", "report", "--output-dir", dashless(out)])
 
 
 @contextlib.contextmanager
