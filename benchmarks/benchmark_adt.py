@@ -205,9 +205,11 @@ class ADTGrowth:
     def track_user_cpu_ratio_1e7_over_1e6(self):
         """The same ratio in user CPU time of the process (all threads): the work of the code,
         without the kernel's time. At 1e7 each call touches about 1.3 GB of fresh memory, and
-        the kernel's page faults for it (transparent huge pages, compacted on demand) took
-        0.05-1.4 s of system time per call on this kind of machine, against about 0.3 s of
-        user time per 1e6 call; at 1e6 the allocator reuses its memory and faults none."""
+        its page faults took 0.06-2.0 s of system time per call on this kind of machine (the
+        same huge pages every call): a virtual machine whose balloon driver reports freed
+        memory to the host has it backed again when touched, and how much the host took back
+        since the previous call is timing (see the README). A 1e6 call takes about 0.3 s of
+        user time; there the allocator reuses its memory and faults none."""
         return median_ratio(lambda: adt(self.large), lambda: adt(self.small), repeats=3, clock=_user_cpu)
 
     track_user_cpu_ratio_1e7_over_1e6.unit = "x"
