@@ -1024,6 +1024,24 @@ def test_report_says_which_tables_lack_their_provenance(capsys, tmp_path):
     assert f"run `replication sph --output-dir {tmp_path}` again" in err
 
 
+@pytest.mark.slow
+def test_tables_without_provenance_beside_a_quick_run_are_made_again_with_quick(capsys, quick_reports_copy):
+    # the hint named the paper's settings: a full run into reports-quick/, beside a quick run's data
+    out = quick_reports_copy
+    (out / "data" / "table1_provenance.json").unlink()
+    code, _, err = run(capsys, "report", "--output-dir", out)
+    assert code == 0 and f"run `replication table1 --quick --output-dir {out}` again" in err, err
+    import json
+
+    record = json.loads((out / "data" / "casestudy_provenance.json").read_text())
+    record["config"], record["quick"] = {}, False  # a paper-settings case study beside them
+    (out / "data" / "casestudy_provenance.json").write_text(json.dumps(record))
+    from replication.cli.reports import _all_quick
+
+    assert not _all_quick(out / "data")
+    assert not _all_quick(out / "nothing-here")  # no settings recorded: the paper's command
+
+
 def test_ctrl_c_while_the_command_line_is_parsed_is_one_line(capsys, monkeypatch):
     # Ctrl-C in the first second (the command's module being imported) printed a traceback
     import replication.cli as cli

@@ -116,6 +116,16 @@ def _without_provenance(data: Path) -> list[tuple[str, str]]:
     ]
 
 
+def _all_quick(data: Path) -> bool:
+    """Whether the data sets in ``data`` that record their settings all record a quick run: the
+    tables of one without them are then a quick run's too, and made again with ``--quick``."""
+    from replication.report.settings import QUICK, saved_settings
+
+    found = [saved_settings(data, prefix) for prefix, _ in EXPERIMENTS]
+    known = [settings for settings in found if settings is not None]
+    return bool(known) and all(settings[: len(QUICK)] == QUICK for settings in known)
+
+
 def _check_readme(readme: str, out: Path) -> Path:
     from replication.errors import InputError
     from replication.io.paths import check_distinct
@@ -250,7 +260,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
         written.append(_render(render_jet_validation, "validate-jet", out))
     if (out / "data" / "casestudy_provenance.json").is_file():
         written.append(_render(render_casestudy, "casestudy", out))
-    orphans = [(experiment, rerun_into(f"replication {command}", out))
+    quick = " --quick" if _all_quick(out / "data") else ""  # (a reports-quick/ named the paper's run)
+    orphans = [(experiment, rerun_into(f"replication {command}{quick}", out))
                for experiment, command in _without_provenance(out / "data")]  # fmt: skip
     why = "a save that was cut short, or the file was removed"
     if not written and orphans:  # one line, not a warning beside "run reproduce first"
