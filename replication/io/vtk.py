@@ -22,6 +22,7 @@ import numpy as np
 from replication.errors import CloudFileError, InputError, OutputError, escaped, shortened
 from replication.io.atomic import atomic_path, atomic_write_text
 from replication.io.paths import dangling, lookup
+from replication.io.vtkload import vtk_imports
 
 __all__ = [
     "SURFACE_FORMATS",
@@ -152,10 +153,11 @@ def write_vtp(
     about 0.1 s.
     """
     mesh = _mesh(mesh, path, "vtp")
-    from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
-    from vtkmodules.vtkCommonCore import vtkPoints
-    from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
-    from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
+    with vtk_imports():
+        from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
+        from vtkmodules.vtkCommonCore import vtkPoints
+        from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+        from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
 
     points = np.ascontiguousarray(mesh.points, dtype=np.float64)
     triangles = np.asarray(mesh.triangles, dtype=np.int64)
@@ -217,7 +219,8 @@ def _write_failure(code: int, messages: list[str]) -> str:
     """Why a VTK writer failed: its error code (an errno below VTK's own codes), else its message."""
     import re
 
-    from vtkmodules.vtkCommonMisc import vtkErrorCode
+    with vtk_imports():
+        from vtkmodules.vtkCommonMisc import vtkErrorCode
 
     if 0 < code < vtkErrorCode.FirstVTKErrorCode:  # VTK passes the system's errno on
         return os.strerror(code)
@@ -259,7 +262,8 @@ def _vtk_messages() -> Iterator[list[str]]:
     Without this a malformed file makes VTK print several coloured log lines (and
     multi-line pipeline dumps) on stderr before the one-line error this package reports.
     """
-    from vtkmodules.vtkCommonCore import vtkLogger, vtkOutputWindow, vtkStringOutputWindow
+    with vtk_imports():
+        from vtkmodules.vtkCommonCore import vtkLogger, vtkOutputWindow, vtkStringOutputWindow
 
     previous = vtkOutputWindow.GetInstance()
     window = vtkStringOutputWindow()
@@ -284,7 +288,8 @@ def _vtk_messages() -> Iterator[list[str]]:
 
 def _cells(mesh: Any) -> str:
     """What a mesh that is not all triangles holds, in words ("10 vertex cell(s) (points, not faces)")."""
-    from vtkmodules.util.numpy_support import vtk_to_numpy
+    with vtk_imports():
+        from vtkmodules.util.numpy_support import vtk_to_numpy
 
     kinds = []
     for count, kind in ((mesh.n_verts, "vertex cell(s) (points, not faces)"), (mesh.n_lines, "line(s)"),
@@ -348,7 +353,8 @@ def _as_triangles(path: Path, mesh: Any) -> Any:
     corners. Flat means within :data:`FLAT_POLYGON` of the polygon's size, or within
     :data:`FLAT_ROUNDING` units of the points' precision (float32 or float64).
     """
-    from vtkmodules.util.numpy_support import vtk_to_numpy
+    with vtk_imports():
+        from vtkmodules.util.numpy_support import vtk_to_numpy
 
     polys = mesh.GetPolys()
     offsets = vtk_to_numpy(polys.GetOffsetsArray()).astype(np.int64)
@@ -419,9 +425,10 @@ def read_surface(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
         triangle strips or flat polygons (those are cut into triangles; see
         :func:`_as_triangles`).
     """
-    import pyvista as pv
-    from vtkmodules.vtkIOLegacy import vtkPolyDataReader
-    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+    with vtk_imports():
+        import pyvista as pv
+        from vtkmodules.vtkIOLegacy import vtkPolyDataReader
+        from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
 
     if not os.fspath(path):
         raise CloudFileError("no surface file named: the file name is empty")

@@ -39,10 +39,10 @@ def _load_pyvista() -> Any:
     interrupted there, VTK crashed or raised an ``ImportError`` that :func:`render_views` took
     for "cannot render" (4 of 80 SIGTERMs at that moment).
     """
-    from replication.io.atomic import interrupt_deferred
+    from replication.io.vtkload import vtk_imports
 
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-    with interrupt_deferred():
+    with vtk_imports():
         pv = importlib.import_module("pyvista")
         importlib.import_module("pyvista.plotting")
         for name in _PLOTTER_MODULES:

@@ -128,7 +128,10 @@ def _readonly(a: np.ndarray) -> np.ndarray:
 
 def triangle_polydata(points: np.ndarray, triangles: np.ndarray) -> pyvista.PolyData:
     """A :class:`pyvista.PolyData` of triangles (pyvista is imported on first use)."""
-    import pyvista as pv
+    from replication.io.vtkload import vtk_imports
+
+    with vtk_imports():
+        import pyvista as pv
 
     return pv.PolyData.from_regular_faces(np.array(points, dtype=np.float64), np.asarray(triangles))
 
