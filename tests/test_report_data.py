@@ -361,3 +361,19 @@ def test_the_headline_is_not_drawn_from_a_changed_data_file(quick_reports_copy):
     path.write_text("".join(lines[:-1]))
     with pytest.raises(ReportDataError, match=r"casestudy_runs.csv differs from the file saved"):
         headline(quick_reports_copy)
+
+
+def test_report_checks_every_experiment_s_data_with_its_renderer_s_loader():
+    """The check before drawing (``cli.reports._check_data_sets``) knows each experiment's
+    loader, and it is the one that experiment's renderer calls."""
+    import importlib
+    import inspect
+
+    from replication.cli.reports import _LOADERS, EXPERIMENTS
+
+    assert set(_LOADERS) == {prefix for prefix, _ in EXPERIMENTS}
+    for prefix, loader in _LOADERS.items():
+        module, function = loader.split(":")
+        module = importlib.import_module(module)
+        render = getattr(module, f"render_{prefix}")
+        assert f"{function}(" in inspect.getsource(render), (prefix, function)

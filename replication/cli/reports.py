@@ -288,13 +288,13 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
-#: Each report's data: the prefix of its files, the name ``_render`` gives it, and its loader.
-_LOADERS = (
-    ("table1", "table1", "replication.report.table1:load_table1_data"),
-    ("sph", "sph", "replication.report.sph:load_sph_data"),
-    ("jet_validation", "validate-jet", "replication.report.jet_validation:load_jet_validation_data"),
-    ("casestudy", "casestudy", "replication.report.casestudy:load_casestudy_data"),
-)
+#: The loader of each experiment's data (:data:`EXPERIMENTS`' prefixes), imported when used.
+_LOADERS = {
+    "table1": "replication.report.table1:load_table1_data",
+    "sph": "replication.report.sph:load_sph_data",
+    "jet_validation": "replication.report.jet_validation:load_jet_validation_data",
+    "casestudy": "replication.report.casestudy:load_casestudy_data",
+}
 
 
 def _check_data_sets(out: Path) -> None:
@@ -307,10 +307,10 @@ def _check_data_sets(out: Path) -> None:
     """
     import importlib
 
-    for prefix, name, loader in _LOADERS:
+    for prefix, command in EXPERIMENTS:
         if (out / "data" / f"{prefix}_provenance.json").is_file():
-            module, function = loader.split(":")
-            _render(getattr(importlib.import_module(module), function), name, out)
+            module, function = _LOADERS[prefix].split(":")
+            _render(getattr(importlib.import_module(module), function), command, out)
 
 
 def _pages_drawn(out: Path, *, performance: bool) -> list[str]:
