@@ -316,8 +316,8 @@ def _check_data_sets(out: Path) -> None:
 def _pages_drawn(out: Path, *, performance: bool) -> list[str]:
     """The pages ``replication report`` draws in ``out``: those whose data are there, the index,
     and performance.md with ``--performance``."""
-    drawn = [f"{name}.md" for name in ("table1", "sph", "jet_validation", "casestudy")
-             if (out / "data" / f"{name}_provenance.json").is_file()]  # fmt: skip
+    data = out / "data"
+    drawn = [f"{prefix}.md" for prefix, _ in EXPERIMENTS if (data / f"{prefix}_provenance.json").is_file()]
     return [*drawn, "index.md", *(["performance.md"] if performance else [])]
 
 
