@@ -24,6 +24,20 @@ def test_report_structure(quick_reports):
     assert "[Figs. 8 and 9](casestudy.md)" in (quick_reports / "index.md").read_text()
 
 
+def test_the_evaluation_cost_states_its_rounds_which_scale_with_the_ga(quick_reports):
+    from replication.experiments.casestudy import default_timing_repeats, quick_ga_config
+
+    prov = json.loads((quick_reports / "data/casestudy_provenance.json").read_text())
+    rounds = default_timing_repeats(quick_ga_config())
+    assert prov["evaluation_timing"]["repeats"] == rounds == 21
+    text = (quick_reports / "casestudy.md").read_text()
+    assert f"Cost of one evaluation (ADT + jet model, {rounds} rounds, " in text
+    evaluation = pd.read_csv(quick_reports / "data/casestudy_evaluation.csv")
+    assert list(evaluation["individual"]) == ["flat plate", "pelton bucket", "random"]
+    assert (evaluation["q1"] <= evaluation["median"]).all()
+    assert (evaluation["median"] <= evaluation["q3"]).all()
+
+
 def test_claims_and_shapes_equal_csv(quick_reports):
     found = parse_tables((quick_reports / "casestudy.md").read_text())
     claims = pd.read_csv(quick_reports / "data/casestudy_claims.csv")
@@ -66,6 +80,8 @@ def test_casestudy_cli_json_and_resume(tmp_path, monkeypatch, capsys):
     assert all(len(v) == 3 for v in first["best_so_far_N"].values())
     assert set(first["reference_shapes_N"]) == {"flat plate", "pelton bucket"}
     assert (tmp_path / "out" / "casestudy.md").is_file()
+    prov = json.loads((tmp_path / "out" / "data" / "casestudy_provenance.json").read_text())
+    assert prov["evaluation_timing"]["repeats"] == 5  # 36 evaluations: not outnumbered by the timing
 
     # the run directory holds checkpoints: refused without --resume, nothing overwritten
     assert main(args) == 1

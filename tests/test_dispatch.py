@@ -446,6 +446,30 @@ def test_timing_shares_known_answers():
     assert timing_shares(2, 8) == [1, 1]  # never an empty task
 
 
+def test_timing_rounds_scale_with_the_ga_known_answers():
+    """100 rounds for the paper's GA, 21 for --quick's 216 evaluations, 5 for a tiny custom run
+    (whose 36 evaluations the old fixed 100 rounds outnumbered eightfold)."""
+    from replication.experiments.casestudy import default_timing_repeats, quick_ga_config
+
+    assert default_timing_repeats(GAConfig()) == 100
+    assert default_timing_repeats(quick_ga_config()) == 21
+    assert default_timing_repeats(GAConfig(runs=2, generations=3, population=6)) == 5
+    assert default_timing_repeats(GAConfig(runs=1, generations=10, population=50)) == 50
+
+
+@given(st.integers(1, 8), st.integers(1, 80), st.integers(5, 100))
+def test_timing_rounds_stay_in_range_and_never_outnumber_a_large_gas_evaluations(
+    runs, generations, population
+):
+    from replication.experiments.casestudy import default_timing_repeats
+
+    evaluations = runs * generations * population
+    rounds = default_timing_repeats(GAConfig(runs=runs, generations=generations, population=population))
+    assert 5 <= rounds <= 100
+    if evaluations >= 50:  # each round evaluates three individuals: at most 30 % of the GA's work
+        assert 3 * rounds <= 0.3 * evaluations + 1e-9
+
+
 @given(st.integers(1, 10_000), st.integers(1, 256))
 def test_timing_shares_cover_every_round_evenly(repeats, workers):
     from replication.experiments.casestudy import timing_shares

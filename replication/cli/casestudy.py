@@ -332,7 +332,7 @@ def run_and_report(plan: Plan, args: argparse.Namespace) -> tuple[Any, Path]:
                 rescored = RescoreProgress()
                 results = run_casestudy(
                     config, run_dir=plan.run_dir, pool_factory=pool, resume=plan.resume, on_generation=tick,
-                    command=args.invocation, quick=plan.quick, timing_repeats=20 if plan.quick else 100,
+                    command=args.invocation, quick=plan.quick,
                     rescore=plan.rescore, on_rescored=rescored, fitness=fitness, solver=plan.solver,
                     on_rescore_plan=rescored.plan,
                 )  # fmt: skip

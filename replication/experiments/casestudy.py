@@ -43,6 +43,7 @@ from replication.surfaces import adt
 __all__ = [
     "PAPER_CASESTUDY",
     "CaseStudyResults",
+    "default_timing_repeats",
     "differences_from_paper",
     "quick_ga_config",
     "run_casestudy",
@@ -142,6 +143,19 @@ def _time_evaluations(config: GAConfig, repeats: int, warmup: int = 3) -> pd.Dat
     return interleaved(tasks, repeats=repeats, warmup=warmup)
 
 
+def default_timing_repeats(config: GAConfig) -> int:
+    """Rounds of the evaluation-cost timing for ``config``: one per ten of the GA's evaluations,
+    at least 5 and at most 100.
+
+    The paper's settings (7,200 evaluations) get 100 rounds, ``--quick`` (216) gets 21; a small
+    custom run is not made to spend more time measuring one evaluation than evaluating its GA
+    (each round evaluates the three timed individuals). The timing informs a claim whose verdict
+    is "cannot be compared", so the count changes a spread, never a verdict.
+    """
+    evaluations = config.runs * config.generations * config.population
+    return int(min(100, max(5, evaluations // 10)))
+
+
 def timing_shares(repeats: int, workers: int) -> list[int]:
     """Split ``repeats`` timing rounds over at most ``workers`` tasks, as evenly as possible."""
     if repeats < 1 or workers < 1:
@@ -238,7 +252,7 @@ def run_casestudy(
     pool_factory: ExecutorFactory,
     resume: bool = False,
     on_generation: Callable[[GARun], None] | None = None,
-    timing_repeats: int = 100,
+    timing_repeats: int | None = None,
     command: str | None = None,
     quick: bool = False,
     rescore: RescoreConfig | None = None,
@@ -262,8 +276,8 @@ def run_casestudy(
         Continue the runs from their checkpoints.
     on_generation : callable, optional
         Called after every generation of every run (progress display).
-    timing_repeats : int
-        Repeats of the evaluation-cost measurement.
+    timing_repeats : int, optional
+        Rounds of the evaluation-cost measurement (default: :func:`default_timing_repeats`).
     command : str, optional
         The invocation recorded in the provenance.
     quick : bool
@@ -289,6 +303,8 @@ def run_casestudy(
     Paper section 6, Figs. 8 and 9.
     """
     started = time.perf_counter()
+    if timing_repeats is None:
+        timing_repeats = default_timing_repeats(config)
     runs, histories, best, states = [], [], {}, []
     with Dispatcher(pool_factory) as dispatcher:  # one executor for every run of the command
         # before the GA, on its executor: the timing has the workers to itself

@@ -126,12 +126,14 @@ def _surface(points: np.ndarray, duplicates: str) -> Any:
 
 
 def _timed_where(prov: dict[str, Any]) -> str:
-    """Where the evaluations were timed: in one process, or on several of the GA's workers at once."""
+    """How many rounds timed the evaluations, and where: in one process, or on several of the GA's
+    workers at once (the rounds scale with the GA's size, see ``default_timing_repeats``)."""
     timing = prov.get("evaluation_timing") or {}
     workers = int(timing.get("workers_at_once", 1))
+    rounds = f"{timing['repeats']} rounds, " if "repeats" in timing else ""
     if workers <= 1:
-        return "one process"
-    return f"timed on {workers} of the GA's workers at once, each on its share of the rounds"
+        return f"{rounds}one process"
+    return f"{rounds}timed on {workers} of the GA's workers at once, each on its share of the rounds"
 
 
 def _fig8(d: dict[str, Any], stem: Path) -> None:
