@@ -20,16 +20,32 @@ __all__ = ["clear_figures", "fig6", "figure_files", "save_figure"]
 def save_figure(
     fig: Figure, stem: str | os.PathLike[str], formats: tuple[str, ...] = ("png", "svg")
 ) -> list[Path]:
-    """Save ``fig`` as ``stem.png`` and ``stem.svg`` atomically (no timestamps in the files)."""
+    """Save ``fig`` as ``stem.png`` and ``stem.svg`` atomically (no timestamps in the files).
+
+    Both files are cropped to the figure's tight bounding box (matplotlib's
+    ``bbox_inches="tight"``), found once at the PNG's 150 dpi. Matplotlib's own "tight"
+    lays the figure out again for every format (a pass without drawing, then the bounding
+    box): 4 passes for two formats where 3 do, about 15 % of the save. The placeholder
+    layout engine ``tight_layout`` leaves would force that pass too, so after the layout
+    the figure has no layout engine (the layout saved is the one it keeps).
+    """
     FigureCanvasAgg(fig)
     paths = []
-    for ext in formats:
-        path = Path(f"{stem}.{ext}")
-        metadata = {"Date": None} if ext == "svg" else {"Software": None}
-        # a fixed salt for SVG element ids: the same data give byte-identical files
-        with matplotlib.rc_context({"svg.hashsalt": "replication"}), atomic_path(path) as tmp:
-            fig.savefig(tmp, format=ext, dpi=150, metadata=metadata, bbox_inches="tight")
-        paths.append(path)
+    # no layout engine from the user's matplotlibrc may lay the figure out again (matplotlib
+    # sets the figure's engine anew after each save); a fixed salt for the SVG's element ids,
+    # so that the same data give byte-identical files
+    rc = {"figure.autolayout": False, "figure.constrained_layout.use": False, "svg.hashsalt": "replication"}
+    with matplotlib.rc_context(rc):
+        fig.set_dpi(150)
+        fig.draw_without_rendering()  # the layout, as each format's draw will see it
+        box = fig.get_tightbbox(fig.canvas.get_renderer()).padded(matplotlib.rcParams["savefig.pad_inches"])
+        fig.set_layout_engine(None)  # laid out: no pass before each format's draw
+        for ext in formats:
+            path = Path(f"{stem}.{ext}")
+            metadata = {"Date": None} if ext == "svg" else {"Software": None}
+            with atomic_path(path) as tmp:
+                fig.savefig(tmp, format=ext, dpi=150, metadata=metadata, bbox_inches=box)
+            paths.append(path)
     return paths
 
 
