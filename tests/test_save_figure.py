@@ -91,3 +91,44 @@ def test_the_same_figure_gives_the_same_bytes(tmp_path):
     save_figure(_figure(), tmp_path / "b")
     for ext in ("png", "svg"):
         assert (tmp_path / f"a.{ext}").read_bytes() == (tmp_path / f"b.{ext}").read_bytes()
+
+
+def _renderers_made(monkeypatch) -> list[float]:
+    from matplotlib.backends import backend_agg
+
+    made = []
+    original = backend_agg.RendererAgg.__init__
+
+    def init(self, width, height, dpi):
+        made.append(dpi)
+        original(self, width, height, dpi)
+
+    monkeypatch.setattr(backend_agg.RendererAgg, "__init__", init)
+    return made
+
+
+def _laid_out(fig: Figure) -> Figure:
+    axes = fig.subplots(1, 2)
+    axes[0].plot([0, 1], [0, 1])
+    axes[1].set_ylabel("a label")
+    fig.suptitle("a suptitle")
+    fig.tight_layout()
+    return fig
+
+
+def test_a_new_figure_is_laid_out_and_saved_with_one_renderer(tmp_path, monkeypatch):
+    """Matplotlib caches text extents per renderer: a figure made at the saved dpi on its Agg
+    canvas measures its text for ``tight_layout``, the layout pass and the bounding box with
+    one renderer (the cropped PNG, of another size, draws on a second). A plain ``Figure`` is
+    laid out at 100 dpi on a renderer of its own."""
+    from replication.report.figures import DPI, new_figure
+
+    made = _renderers_made(monkeypatch)
+    fig = new_figure((6, 3))
+    assert fig.dpi == DPI and isinstance(fig.canvas, FigureCanvasAgg)
+    save_figure(_laid_out(fig), tmp_path / "new", formats=("png",))
+    assert made == [DPI, DPI], made  # the layout and the bounding box; the cropped PNG
+
+    made.clear()
+    save_figure(_laid_out(Figure(figsize=(6, 3))), tmp_path / "plain", formats=("png",))
+    assert made == [100, DPI, DPI], made

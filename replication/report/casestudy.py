@@ -15,14 +15,13 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from matplotlib.figure import Figure
 from matplotlib.patches import Wedge
 
 from replication.errors import DuplicatePointsWarning, ReportDataError
 from replication.experiments.casestudy import differences_from_paper
 from replication.report.casestudy_rescore import RESCORE_FILES, rescore_section, save_rescore_data  # issue 11
 from replication.report.casestudy_validation import fitness_note, validation_section  # issue 11
-from replication.report.figures import clear_figures, figure_files, save_figure
+from replication.report.figures import clear_figures, figure_files, new_figure, save_figure
 from replication.report.markdown import fmt, iqr, provenance_section, table, write_report
 from replication.report.parallel import run_figure_tasks
 from replication.report.render3d import render_views
@@ -138,7 +137,7 @@ def _timed_where(prov: dict[str, Any]) -> str:
 
 def _fig8(d: dict[str, Any], stem: Path) -> None:
     history, shapes = d["history"], d["shapes"].set_index("shape")
-    fig = Figure(figsize=(7, 4.2))
+    fig = new_figure((7, 4.2))
     ax = fig.subplots()
     for k, rows in history.groupby("run"):
         ax.plot(rows["generation"], rows["best"], "-o", ms=3, color=f"C{k}", label=f"run {k}: best")
@@ -165,7 +164,7 @@ def _fig8(d: dict[str, Any], stem: Path) -> None:
 def _fig9(d: dict[str, Any], stem: Path, config: dict[str, Any]) -> None:
     best = d["best"]
     runs = sorted(best["run"].unique())
-    fig = Figure(figsize=(4.2 * len(runs), 3.8))
+    fig = new_figure((4.2 * len(runs), 3.8))
     axes = np.atleast_1d(fig.subplots(1, len(runs)))
     jet = config["jet"]
     cx, cy = (1e3 * v for v in jet["center"])

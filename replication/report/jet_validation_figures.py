@@ -6,9 +6,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from matplotlib.figure import Figure
 
-from replication.report.figures import save_figure
+from replication.report.figures import new_figure, save_figure
 
 __all__ = ["MARKERS", "resolution_figure", "scatter_figure"]
 
@@ -52,7 +51,7 @@ def scatter_figure(d: dict[str, Any], stem: Path) -> None:
     table = d["surfaces"]
     surrogate = d.get("surrogate_surfaces")
     panels = 1 if surrogate is None else 2
-    fig = Figure(figsize=(5.2 * panels, 5.0))
+    fig = new_figure((5.2 * panels, 5.0))
     axes = np.atleast_1d(fig.subplots(1, panels))
     _scatter(axes[0], table, "sph_over_measured_flux", "model_over_rho_q_v", "thin-sheet model (today)")
     axes[0].set_ylabel("thin-sheet model: force / rho Q V")
@@ -73,7 +72,7 @@ def resolution_figure(d: dict[str, Any], stem: Path) -> None:
     """SPH force / flux V of the resolution study's surfaces against particle radius."""
     res = d["resolution"]
     res = res[res["sph_status"] == "ok"]
-    fig = Figure(figsize=(6.4, 4.2))
+    fig = new_figure((6.4, 4.2))
     ax = fig.subplots()
     for i, (name, rows) in enumerate(res.groupby("surface", sort=False)):
         rows = rows.sort_values("radius_mm")

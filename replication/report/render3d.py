@@ -16,10 +16,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from replication.io.atomic import atomic_path
-from replication.report.figures import save_figure
+from replication.report.figures import new_figure, save_figure
 
 __all__ = ["render_views"]
 
@@ -92,7 +91,7 @@ def _pyvista_views(views: dict[Path, Sequence[tuple[str, Mesh]]], size: tuple[in
 
 def _matplotlib_views(views: dict[Path, Sequence[tuple[str, Mesh]]], size: tuple[int, int]) -> None:
     for path, meshes in views.items():
-        fig = Figure(figsize=(size[0] / 100, size[1] / 100))
+        fig = new_figure((size[0] / 100, size[1] / 100))
         ax = fig.add_subplot(projection="3d")
         for label, (points, triangles) in meshes:
             ax.plot_trisurf(

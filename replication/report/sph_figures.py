@@ -7,9 +7,8 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from matplotlib.figure import Figure
 
-from replication.report.figures import save_figure
+from replication.report.figures import new_figure, save_figure
 
 __all__ = ["convergence_figure", "run_label", "series_figure"]
 
@@ -23,7 +22,7 @@ def run_label(r: pd.Series) -> str:
 def series_figure(d: dict[str, Any], stem: Path) -> None:
     runs, series = d["runs"], d["series"]
     shapes = list(dict.fromkeys(runs["shape"]))
-    fig = Figure(figsize=(11, 4.2))
+    fig = new_figure((11, 4.2))
     axes = np.atleast_1d(fig.subplots(1, len(shapes), sharey=True))
     for ax, shape in zip(axes, shapes):
         for i, (_, r) in enumerate(runs[(runs["shape"] == shape) & (runs["status"] == "ok")].iterrows()):
@@ -60,7 +59,7 @@ def series_figure(d: dict[str, Any], stem: Path) -> None:
 def convergence_figure(d: dict[str, Any], stem: Path) -> None:
     runs = d["runs"]
     dfsph = runs[(runs["method"] == "dfsph") & (runs["status"] == "ok")]
-    fig = Figure(figsize=(11, 3.8))
+    fig = new_figure((11, 3.8))
     ax1, ax2, ax3 = fig.subplots(1, 3)
     for i, (shape, rows) in enumerate(dfsph.groupby("shape", sort=False)):
         rows = rows.sort_values("radius_mm")
