@@ -127,7 +127,7 @@ def test_a_new_figure_is_laid_out_and_saved_with_one_renderer(tmp_path, monkeypa
     fig = new_figure((6, 3))
     assert fig.dpi == DPI and isinstance(fig.canvas, FigureCanvasAgg)
     save_figure(_laid_out(fig), tmp_path / "new", formats=("png",))
-    assert made == [DPI, DPI], made  # the layout and the bounding box; the cropped PNG
+    assert made == [DPI, DPI], made  # one for the layout, its pass and the box; one for the cropped PNG
 
     made.clear()
     save_figure(_laid_out(Figure(figsize=(6, 3))), tmp_path / "plain", formats=("png",))
