@@ -8,7 +8,7 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from replication.report.figures import save_figure
+from replication.report.figures import DPI, save_figure
 
 
 def _figure() -> Figure:
@@ -31,7 +31,7 @@ def _matplotlib_tight(fig: Figure, ext: str) -> bytes:
     FigureCanvasAgg(fig)
     buffer = io.BytesIO()
     metadata = {"Date": None} if ext == "svg" else {"Software": None}
-    fig.savefig(buffer, format=ext, dpi=150, metadata=metadata, bbox_inches="tight")
+    fig.savefig(buffer, format=ext, dpi=DPI, metadata=metadata, bbox_inches="tight")
     return buffer.getvalue()
 
 
@@ -121,7 +121,7 @@ def test_a_new_figure_is_laid_out_and_saved_with_one_renderer(tmp_path, monkeypa
     canvas measures its text for ``tight_layout``, the layout pass and the bounding box with
     one renderer (the cropped PNG, of another size, draws on a second). A plain ``Figure`` is
     laid out at 100 dpi on a renderer of its own."""
-    from replication.report.figures import DPI, new_figure
+    from replication.report.figures import new_figure
 
     made = _renderers_made(monkeypatch)
     fig = new_figure((6, 3))
